@@ -1,0 +1,66 @@
+"""Validation helpers shared by the config dataclasses.
+
+Every message names the parameter and the accepted range, so that a user who mistypes a value
+knows what to write instead.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+
+def check_number(
+    name: str,
+    value: Any,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+    integer: bool = False,
+) -> None:
+    """Raise ``ValueError`` (or ``TypeError``) unless ``value`` is a finite number in range.
+
+    Args:
+        name: the parameter's dotted name, e.g. ``"camera.pixel_noise"``.
+        value: the value to check.
+        low, high: the bounds of the accepted interval.
+        low_open, high_open: exclude the bound itself.
+        integer: require an ``int`` (``bool`` is refused).
+    """
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
+        raise TypeError(f"{name} must be {kind}, got {value!r} ({type(value).__name__})")
+    if not integer and not math.isfinite(value) and not (value == math.inf and high == math.inf):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    too_low = value <= low if low_open else value < low
+    too_high = value >= high if high_open else value > high
+    if too_low or too_high:
+        left = "(" if low_open else "["
+        right = ")" if high_open else "]"
+        raise ValueError(f"{name} must be in {left}{_fmt(low)}, {_fmt(high)}{right}, got {value!r}")
+
+
+def check_pair(name: str, value: Any, *, positive: bool = True) -> tuple[float, float]:
+    """Return ``value`` as a ``(float, float)`` tuple, or raise naming ``name``."""
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise TypeError(f"{name} must be a pair (a, b) of numbers, got {value!r}")
+    for i, item in enumerate(value):
+        check_number(f"{name}[{i}]", item, 0.0 if positive else -math.inf, low_open=positive)
+    return (float(value[0]), float(value[1]))
+
+
+def check_choice(name: str, value: Any, choices: Sequence[Any]) -> None:
+    """Raise ``ValueError`` unless ``value`` is one of ``choices``."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)!r}, got {value!r}")
+
+
+def _fmt(x: float) -> str:
+    if x == math.inf:
+        return "inf"
+    if x == -math.inf:
+        return "-inf"
+    return f"{x:g}"

@@ -1,0 +1,96 @@
+"""Actions (what a policy outputs) and commands (what the robot does).
+
+The action of one robot is a float32 vector in ``[-1, 1]^2``: ``(v / v_max, w / omega_max)``. Use
+:func:`to_commands` and :func:`to_actions` to convert either way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from anonloc_env.config import RobotConfig
+
+
+def to_commands(actions: np.ndarray, robot: RobotConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Map actions ``(..., 2)`` in ``[-1, 1]`` to commands ``v`` (m/s) and ``w`` (rad/s)."""
+    a = np.asarray(actions, dtype=np.float64)
+    return a[..., 0] * robot.v_max, a[..., 1] * robot.omega_max
+
+
+def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
+    """Map commands ``v`` (m/s) and ``w`` (rad/s) to float32 actions ``(..., 2)``, clipped to
+    ``[-1, 1]`` (a command beyond the robot's limits is saturated, as the env would)."""
+    a = np.stack(
+        [
+            np.asarray(v, dtype=np.float64) / robot.v_max,
+            np.asarray(w, dtype=np.float64) / robot.omega_max,
+        ],
+        axis=-1,
+    )
+    return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+
+def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarray:
+    """Validate a PettingZoo action dict and return an ``(N, 2)`` float64 array, clipped to
+    ``[-1, 1]``.
+
+    Raises:
+        TypeError: ``actions`` is not a mapping.
+        ValueError: a live agent has no action, an unknown agent is named, or an action has the
+            wrong shape or a non-finite value (the message names the agent).
+    """
+    if not isinstance(actions, dict) and not isinstance(actions, Mapping):
+        raise TypeError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+    try:
+        rows = [actions[agent] for agent in agents]
+    except KeyError as missing:
+        raise ValueError(
+            f"actions has no entry for live agent {missing.args[0]!r}; every agent in env.agents "
+            "needs an action"
+        ) from None
+    if len(actions) != len(agents):
+        unknown = sorted(set(actions) - set(agents))
+        raise ValueError(
+            f"actions names agents that are not live: {unknown}; live agents are env.agents"
+        )
+    stacked = _stack_vectors(rows)
+    if stacked is None or stacked.shape != (len(agents), 2):
+        for agent, row in zip(agents, rows, strict=True):
+            if not _is_numeric(row) or np.shape(row) != (2,):
+                raise ValueError(
+                    f"action of {agent!r} must have shape (2,) = (v, w) scaled to [-1, 1], "
+                    f"got {row!r}"
+                )
+        raise AssertionError("unreachable: every row has shape (2,)")  # pragma: no cover
+    if not math.isfinite(stacked.sum()):  # a NaN or inf anywhere makes the sum non-finite
+        finite = np.isfinite(stacked).all(axis=1)
+        if not finite.all():
+            bad = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"action of {agents[bad]!r} is not finite: {stacked[bad].tolist()}")
+    # np.clip is slow on small arrays; two in-place ufuncs do the same.
+    np.maximum(stacked, -1.0, out=stacked)
+    np.minimum(stacked, 1.0, out=stacked)
+    return stacked
+
+
+def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
+    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors."""
+    try:
+        stacked = np.array(rows)  # numpy checks that every row has the same shape
+    except (TypeError, ValueError):
+        return None
+    if stacked.shape != (len(rows), 2) or stacked.dtype.kind not in "fiub":
+        return None
+    return stacked.astype(np.float64, copy=False)
+
+
+def _is_numeric(row: Any) -> bool:
+    try:
+        np.asarray(row, dtype=np.float64)
+    except (ValueError, TypeError):
+        return False
+    return True

@@ -1,0 +1,199 @@
+"""The overhead camera and its detector: world poses in, an anonymous shuffled picture out.
+
+Geometry (see :class:`anonloc_env.config.CameraConfig`): the camera looks at the arena centre
+``(xc, yc)`` from a distance ``height``, turned by ``tilt`` about the world x axis. A ground point
+maps to the image through the homography
+
+``G = P @ K @ C`` with ``C = [[1, 0, -xc], [0, 1, -yc], [0, 0, 1]]`` (centre the arena),
+``K = [[s, 0, 0], [0, s cos(tilt), 0], [0, sin(tilt) / height, 1]]`` (perspective) and
+``P = [[1, 0, cu], [0, 1, cv], [0, 0, 1]]`` (principal point),
+
+so ``w = 1 + (y - yc) sin(tilt) / height`` is the relative depth of the point and the local scale
+is ``s / w`` along u and ``s cos(tilt) / w**2`` along v. Untilted, ``G`` is the affine map
+``u = s (x - xc) + cu``. A robot's detected heading is the image direction of its heading vector
+through the Jacobian of ``G`` at its position.
+
+Anything that yields :class:`Picture` objects from poses can stand in for :class:`Camera` (the
+:class:`DetectionSource` protocol): nothing downstream knows how a picture was made.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from anonloc_env.config import EnvConfig
+from anonloc_env.geometry import wrap_angle
+
+
+@dataclass(frozen=True, eq=False)
+class Picture:
+    """One picture: the shuffled detections every robot receives, and the ground truth.
+
+    Attributes:
+        detections: ``(M, 3)`` rows ``(u, v, theta)`` in image units and radians, theta in
+            [-pi, pi) (0 where the detector gives no orientation). Row order is random.
+        true_index: ``(N,)`` row of robot i in ``detections``, or -1 if it was not detected.
+            Ground truth: it reaches infos, never observations.
+        time: time the picture was taken (s since reset).
+        index: 0 for the first picture of an episode, then 1, 2, ...
+        has_orientation: whether ``theta`` was measured.
+    """
+
+    detections: np.ndarray
+    true_index: np.ndarray
+    time: float
+    index: int
+    has_orientation: bool
+
+    @property
+    def n_rows(self) -> int:
+        """Number of detections (robots seen plus false positives)."""
+        return int(self.detections.shape[0])
+
+
+class DetectionSource(Protocol):
+    """Anything that turns the robots' true poses into a :class:`Picture`."""
+
+    def take(
+        self, poses: np.ndarray, rng: np.random.Generator, time: float, index: int
+    ) -> Picture: ...
+
+
+def detection_capacity(config: EnvConfig) -> int:
+    """Rows a picture may hold: every robot plus the false positives of all but one picture in a
+    million (unless ``observation.max_detections`` fixes it)."""
+    if config.observation.max_detections is not None:
+        return config.observation.max_detections
+    mean = config.camera.false_positives
+    extra = 0
+    if mean > 0.0:
+        term = cumulative = math.exp(-mean)
+        while 1.0 - cumulative > 1e-6:
+            extra += 1
+            term *= mean / extra
+            cumulative += term
+    return config.n_robots + extra
+
+
+class Camera:
+    """Pinhole camera above the arena plus a noisy, anonymous detector.
+
+    Args:
+        config: the task configuration (camera section, arena and robot count).
+    """
+
+    def __init__(self, config: EnvConfig) -> None:
+        cam = config.camera
+        self.config = config
+        width, height = config.arena_size
+        xc, yc = width / 2.0, height / 2.0
+        s = cam.scale
+        cu, cv = cam.principal_point if cam.principal_point is not None else (s * xc, s * yc)
+        tilt = math.radians(cam.tilt_deg)
+        center = np.array([[1.0, 0.0, -xc], [0.0, 1.0, -yc], [0.0, 0.0, 1.0]])
+        perspective = np.array(
+            [[s, 0.0, 0.0], [0.0, s * math.cos(tilt), 0.0], [0.0, math.sin(tilt) / cam.height, 1.0]]
+        )
+        principal = np.array([[1.0, 0.0, cu], [0.0, 1.0, cv], [0.0, 0.0, 1.0]])
+        self.homography = principal @ perspective @ center
+        """``(3, 3)`` map from ``(x, y, 1)`` on the ground to homogeneous image coordinates."""
+        self.inverse = np.linalg.inv(self.homography)
+        self.principal_point = (cu, cv)
+        self.capacity = detection_capacity(config)
+        self.field_of_view = self._field_of_view()
+        """``(u_min, v_min, u_max, v_max)`` of the region where detections can appear."""
+
+    def _field_of_view(self) -> tuple[float, float, float, float]:
+        cam = self.config.camera
+        if cam.image_size is not None:
+            (cu, cv), (w, h) = self.principal_point, cam.image_size
+            return (cu - w / 2.0, cv - h / 2.0, cu + w / 2.0, cv + h / 2.0)
+        width, height = self.config.arena_size
+        corners = self.project(np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]]))
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+    def project(self, xy: np.ndarray) -> np.ndarray:
+        """Image coordinates ``(M, 2)`` of ground points ``xy`` ``(M, 2)`` (no noise)."""
+        g = self.homography
+        w = g[2, 0] * xy[:, 0] + g[2, 1] * xy[:, 1] + g[2, 2]
+        u = (g[0, 0] * xy[:, 0] + g[0, 1] * xy[:, 1] + g[0, 2]) / w
+        v = (g[1, 0] * xy[:, 0] + g[1, 1] * xy[:, 1] + g[1, 2]) / w
+        return np.column_stack([u, v])
+
+    def unproject(self, uv: np.ndarray) -> np.ndarray:
+        """Ground points ``(M, 2)`` seen at image coordinates ``uv`` ``(M, 2)``."""
+        h = np.column_stack([uv, np.ones(len(uv))]) @ self.inverse.T
+        return h[:, :2] / h[:, 2:3]
+
+    def jacobian(self, xy: np.ndarray) -> np.ndarray:
+        """``(M, 2, 2)`` derivative of image coordinates with respect to ground coordinates."""
+        g = self.homography
+        w = g[2, 0] * xy[:, 0] + g[2, 1] * xy[:, 1] + g[2, 2]
+        uv = self.project(xy)
+        jac = g[None, :2, :2] - uv[:, :, None] * g[None, 2:3, :2]
+        return jac / w[:, None, None]
+
+    def local_scale(self, xy: np.ndarray) -> np.ndarray:
+        """Image units per metre at ground points ``xy`` (square root of the Jacobian's area)."""
+        return np.sqrt(np.abs(np.linalg.det(self.jacobian(xy))))
+
+    def image_heading(self, poses: np.ndarray) -> np.ndarray:
+        """Detected heading (rad, in [-pi, pi)) of robots at ``poses`` ``(M, 3)`` (no noise)."""
+        if self.config.camera.tilt_deg == 0.0:
+            return wrap_angle(poses[:, 2])
+        jac = self.jacobian(poses[:, :2])
+        heading = np.column_stack([np.cos(poses[:, 2]), np.sin(poses[:, 2])])
+        image_dir = np.einsum("mij,mj->mi", jac, heading)
+        return np.arctan2(image_dir[:, 1], image_dir[:, 0])
+
+    def take(self, poses: np.ndarray, rng: np.random.Generator, time: float, index: int) -> Picture:
+        """Photograph robots at ``poses`` ``(N, 3)``: project, add noise, drop misses and robots
+        outside the field of view, add false positives, shuffle."""
+        cam = self.config.camera
+        n = len(poses)
+        uv = self.project(poses[:, :2])
+        u_min, v_min, u_max, v_max = self.field_of_view
+        seen = (uv[:, 0] >= u_min) & (uv[:, 0] <= u_max) & (uv[:, 1] >= v_min) & (uv[:, 1] <= v_max)
+        if cam.p_miss > 0.0:
+            seen &= rng.random(n) >= cam.p_miss
+        if cam.pixel_noise > 0.0:
+            uv = uv + rng.normal(0.0, cam.pixel_noise, (n, 2))
+        if cam.orientation:
+            theta = self.image_heading(poses)
+            if cam.orientation_noise_deg > 0.0:
+                theta = theta + rng.normal(0.0, math.radians(cam.orientation_noise_deg), n)
+        else:
+            theta = np.zeros(n)
+        true_rows = np.column_stack([uv, theta])[seen]
+        n_false = 0
+        if cam.false_positives > 0.0:
+            n_false = min(int(rng.poisson(cam.false_positives)), self.capacity - len(true_rows))
+        false_rows = np.column_stack(
+            [
+                rng.uniform(u_min, u_max, n_false),
+                rng.uniform(v_min, v_max, n_false),
+                rng.uniform(-math.pi, math.pi, n_false) if cam.orientation else np.zeros(n_false),
+            ]
+        )
+        rows = np.concatenate([true_rows, false_rows])
+        order = rng.permutation(len(rows))
+        detections = rows[order]
+        if cam.orientation:
+            detections[:, 2] = wrap_angle(detections[:, 2])
+        # Row of each robot after the shuffle: invert the permutation for the first rows.
+        row_of = np.empty(len(rows), dtype=np.int64)
+        row_of[order] = np.arange(len(rows))
+        true_index = np.full(n, -1, dtype=np.int64)
+        true_index[seen] = row_of[: len(true_rows)]
+        return Picture(
+            detections=detections,
+            true_index=true_index,
+            time=time,
+            index=index,
+            has_orientation=cam.orientation,
+        )

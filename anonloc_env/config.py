@@ -1,0 +1,304 @@
+"""Frozen, validated configuration of the task.
+
+Four layers, one dataclass each, gathered in :class:`EnvConfig`:
+
+* :class:`RobotConfig`: the identical unicycle robots (size, speed limits, odometry noise);
+* :class:`CameraConfig`: the overhead pinhole camera and its detector (scale, tilt, noise, misses,
+  false positives, orientation);
+* :class:`ScheduleConfig`: when pictures are taken (interval, jitter, blackouts);
+* :class:`ObservationConfig` and :class:`RewardConfig`: what each robot observes, and the built-in
+  reward's weights.
+
+Units are SI: metres (m), seconds (s), radians (rad) unless a field's name says ``_deg``. Image
+coordinates are in *image units* (pixels for a real camera). Every value is checked when the object
+is built; a wrong value raises an error naming the field and its accepted range, so a bad config
+never reaches the simulation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from anonloc_env._checks import check_choice, check_number, check_pair
+
+ROBOT_SHAPES = ("square", "circle")
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """The N identical robots: unicycles commanded by a forward speed and a turn rate.
+
+    Attributes:
+        shape: ``"square"`` (as in the paper's Player-Stage robots) or ``"circle"``.
+        size: side of the square, or diameter of the circle (m), in (0, inf).
+        v_max: largest forward speed |v| a command can ask for (m/s), in (0, inf). An action of
+            +1 (or -1) on the first component means ``v = +v_max`` (or ``-v_max``).
+        omega_max: largest turn rate |w| (rad/s), in (0, inf). An action of +1 on the second
+            component means a counter-clockwise turn at ``omega_max``.
+        odometry_noise: standard deviation of the multiplicative error of each control step's
+            measured travelled distance and turned angle (dimensionless, in [0, 1)); 0 means
+            exact wheel encoders.
+    """
+
+    shape: str = "square"
+    size: float = 0.2
+    v_max: float = 0.5
+    omega_max: float = 1.0
+    odometry_noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_choice("robot.shape", self.shape, ROBOT_SHAPES)
+        check_number("robot.size", self.size, 0.0, low_open=True)
+        check_number("robot.v_max", self.v_max, 0.0, low_open=True)
+        check_number("robot.omega_max", self.omega_max, 0.0, low_open=True)
+        check_number("robot.odometry_noise", self.odometry_noise, 0.0, 1.0, high_open=True)
+
+    @property
+    def radius(self) -> float:
+        """Radius of the smallest circle around the robot (m)."""
+        return self.size / math.sqrt(2.0) if self.shape == "square" else self.size / 2.0
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """The overhead pinhole camera and the detector that turns its picture into a list of rows.
+
+    Untilted, a robot at world position ``(x, y)`` appears at
+    ``u = scale * (x - xc) + cu``, ``v = scale * (y - yc) + cv`` where ``(xc, yc)`` is the arena
+    centre and ``(cu, cv)`` the ``principal_point``. The image frame is right-handed (``v`` up), so
+    a counter-clockwise turn of a robot increases its detected ``theta``. A tilt turns this affine
+    map into a homography: the scale then varies across the image (see :mod:`anonloc_env.camera`).
+
+    Attributes:
+        scale: image units per metre at the arena centre, in (0, inf). The paper's lambda.
+        tilt_deg: rotation of the camera about the world x axis through the arena centre (deg),
+            in (-80, 80). Positive tilt puts the camera on the low-y side, so robots at larger y
+            are farther away and look smaller.
+        height: distance from the camera to the arena centre (m), in (0, inf). Only matters with a
+            tilt; it must exceed ``arena_height / 2 * |sin(tilt)|`` so the whole arena is in front
+            of the camera.
+        principal_point: image coordinates ``(cu, cv)`` of the arena centre. ``None`` puts them at
+            ``scale * arena_size / 2``, so that untilted, the world origin maps to the image origin.
+        image_size: ``(width, height)`` of the field of view in image units, centred on the
+            principal point; robots outside are not detected. ``None``: the whole arena is seen.
+        pixel_noise: standard deviation of the Gaussian noise on ``u`` and ``v`` (image units),
+            in [0, inf).
+        orientation: whether the detector measures each robot's heading (a fiducial marker such
+            as the paper's ARToolKit patterns does; a blob detector does not). Without it the
+            ``theta`` column of every picture is 0.
+        orientation_noise_deg: standard deviation of the Gaussian noise on ``theta`` (deg), in
+            [0, 180).
+        p_miss: probability that a robot is missing from a picture, in [0, 1).
+        false_positives: mean number of false detections per picture (Poisson), in [0, inf).
+            They are uniform over the field of view, with a uniform ``theta``.
+    """
+
+    scale: float = 100.0
+    tilt_deg: float = 0.0
+    height: float = 5.0
+    principal_point: tuple[float, float] | None = None
+    image_size: tuple[float, float] | None = None
+    pixel_noise: float = 0.0
+    orientation: bool = True
+    orientation_noise_deg: float = 0.0
+    p_miss: float = 0.0
+    false_positives: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_number("camera.scale", self.scale, 0.0, low_open=True)
+        check_number("camera.tilt_deg", self.tilt_deg, -80.0, 80.0, low_open=True, high_open=True)
+        check_number("camera.height", self.height, 0.0, low_open=True)
+        if self.principal_point is not None:
+            pp = check_pair("camera.principal_point", self.principal_point, positive=False)
+            object.__setattr__(self, "principal_point", pp)
+        if self.image_size is not None:
+            object.__setattr__(self, "image_size", check_pair("camera.image_size", self.image_size))
+        check_number("camera.pixel_noise", self.pixel_noise, 0.0)
+        if not isinstance(self.orientation, bool):
+            raise TypeError(f"camera.orientation must be True or False, got {self.orientation!r}")
+        check_number(
+            "camera.orientation_noise_deg", self.orientation_noise_deg, 0.0, 180.0, high_open=True
+        )
+        check_number("camera.p_miss", self.p_miss, 0.0, 1.0, high_open=True)
+        check_number("camera.false_positives", self.false_positives, 0.0, 1000.0)
+
+
+@dataclass(frozen=True)
+class ScheduleConfig:
+    """When the camera takes pictures.
+
+    The first picture is taken at reset (t = 0); picture k is due at ``k * picture_interval``
+    plus a jitter drawn uniformly in ``[-jitter, +jitter]``, and is taken at the first control
+    step at or after that time. No picture is taken inside a blackout window.
+
+    Attributes:
+        picture_interval: nominal time between two pictures (s), in (0, inf); at least ``dt``.
+        jitter: half-width of the uniform jitter of each picture time (s), in
+            [0, picture_interval / 2).
+        blackouts: windows ``(start, end)`` in seconds since reset, ``0 <= start < end``, during
+            which no picture is taken (a tunnel, an occluded camera).
+    """
+
+    picture_interval: float = 1.0
+    jitter: float = 0.0
+    blackouts: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        check_number("schedule.picture_interval", self.picture_interval, 0.0, low_open=True)
+        check_number(
+            "schedule.jitter", self.jitter, 0.0, self.picture_interval / 2.0, high_open=True
+        )
+        windows = []
+        for i, window in enumerate(self.blackouts):
+            start, end = check_pair(f"schedule.blackouts[{i}]", window, positive=False)
+            check_number(f"schedule.blackouts[{i}][0] (start, s)", start, 0.0)
+            if not end > start:
+                raise ValueError(
+                    f"schedule.blackouts[{i}] must have end > start, got ({start}, {end})"
+                )
+            windows.append((start, end))
+        object.__setattr__(self, "blackouts", tuple(windows))
+
+
+@dataclass(frozen=True)
+class ObservationConfig:
+    """What each robot observes besides the newest picture and its own odometry.
+
+    Attributes:
+        history: number K of earlier pictures kept in the observation, with the robot's own
+            odometry between consecutive ones, in [0, 64]. 0 leaves the history keys out.
+        max_detections: number of rows of a picture in the observation, in [n_robots, 100000].
+            ``None`` sizes it to hold every robot plus the false positives of all but one picture
+            in a million. Extra false positives beyond it are dropped (never true detections).
+    """
+
+    history: int = 0
+    max_detections: int | None = None
+
+    def __post_init__(self) -> None:
+        check_number("observation.history", self.history, 0, 64, integer=True)
+        if self.max_detections is not None:
+            check_number(
+                "observation.max_detections", self.max_detections, 1, 100_000, integer=True
+            )
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """Weights of the built-in reward.
+
+    The energy a robot spends in a control step of length ``dt`` is
+    ``dt * (|v| + turn_cost * |w|)`` (m): the distance its wheels roll.
+
+    Attributes:
+        energy_weight: reward lost per metre of wheel travel (1/m), in [0, inf).
+        turn_cost: wheel travel per radian turned in place (m/rad), in [0, inf); ``None`` uses
+            half the robot's size (a differential drive with wheels at its sides).
+    """
+
+    energy_weight: float = 0.01
+    turn_cost: float | None = None
+
+    def __post_init__(self) -> None:
+        check_number("reward.energy_weight", self.energy_weight, 0.0)
+        if self.turn_cost is not None:
+            check_number("reward.turn_cost", self.turn_cost, 0.0)
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The whole task: arena, robots, camera, picture schedule, observation and reward.
+
+    Attributes:
+        n_robots: number N of identical robots, in [1, 100000].
+        arena_size: ``(width, height)`` of the walled arena (m); the lower-left corner is the
+            world origin. It must hold N robots without overlap.
+        dt: control step (s), in (0, 10]: a command is held this long; physics advances once per
+            ``step()`` (sub-stepped internally so nothing tunnels).
+        max_cycles: number of ``step()`` calls before every agent is truncated, in [1, inf).
+        robot: see :class:`RobotConfig`.
+        camera: see :class:`CameraConfig`.
+        schedule: see :class:`ScheduleConfig`.
+        observation: see :class:`ObservationConfig`.
+        reward: see :class:`RewardConfig`.
+    """
+
+    n_robots: int = 4
+    arena_size: tuple[float, float] = (4.0, 4.0)
+    dt: float = 0.05
+    max_cycles: int = 600
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
+    observation: ObservationConfig = field(default_factory=ObservationConfig)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+
+    def __post_init__(self) -> None:
+        check_number("n_robots", self.n_robots, 1, 100_000, integer=True)
+        object.__setattr__(self, "arena_size", check_pair("arena_size", self.arena_size))
+        check_number("dt", self.dt, 0.0, 10.0, low_open=True)
+        check_number("max_cycles", self.max_cycles, 1, integer=True)
+        for name, cls in _SECTIONS.items():
+            if not isinstance(getattr(self, name), cls):
+                raise TypeError(
+                    f"{name} must be a {cls.__name__} (or a dict of its fields), "
+                    f"got {type(getattr(self, name)).__name__}"
+                )
+        if self.schedule.picture_interval < self.dt:
+            raise ValueError(
+                f"picture_interval must be >= dt ({self.dt} s), "
+                f"got {self.schedule.picture_interval} s"
+            )
+        capacity = arena_capacity(self.arena_size, self.robot)
+        if self.n_robots > capacity:
+            raise ValueError(
+                f"arena_size {self.arena_size} m holds at most {capacity} {self.robot.shape} "
+                f"robots of size {self.robot.size} m without overlap; got n_robots={self.n_robots}"
+            )
+        half_depth = self.arena_size[1] / 2.0 * abs(math.sin(math.radians(self.camera.tilt_deg)))
+        if self.camera.height <= half_depth * 1.05:
+            raise ValueError(
+                f"camera.height must exceed {half_depth * 1.05:.3g} m for tilt_deg="
+                f"{self.camera.tilt_deg} (the far edge of the arena would be behind the camera), "
+                f"got {self.camera.height} m"
+            )
+        if self.observation.max_detections is not None and (
+            self.observation.max_detections < self.n_robots
+        ):
+            raise ValueError(
+                f"observation.max_detections must be in [n_robots={self.n_robots}, 100000], "
+                f"got {self.observation.max_detections}"
+            )
+
+    @property
+    def picture_interval(self) -> float:
+        """Nominal time between pictures (s); the same as ``schedule.picture_interval``."""
+        return self.schedule.picture_interval
+
+    @property
+    def steps_per_picture(self) -> float:
+        """Nominal number of control steps between two pictures."""
+        return self.schedule.picture_interval / self.dt
+
+
+_SECTIONS = {
+    "robot": RobotConfig,
+    "camera": CameraConfig,
+    "schedule": ScheduleConfig,
+    "observation": ObservationConfig,
+    "reward": RewardConfig,
+}
+
+
+def placement_spacing(robot: RobotConfig) -> float:
+    """Centre-to-centre distance (m) that keeps two robots apart whatever their headings."""
+    return 2.0 * robot.radius * 1.05
+
+
+def arena_capacity(arena_size: tuple[float, float], robot: RobotConfig) -> int:
+    """How many robots the placement grid of :mod:`anonloc_env.world` fits in the arena."""
+    spacing = placement_spacing(robot)
+    nx = math.floor(arena_size[0] / spacing)
+    ny = math.floor(arena_size[1] / spacing)
+    return max(nx, 0) * max(ny, 0)

@@ -1,0 +1,346 @@
+"""The PettingZoo ``ParallelEnv`` adapter: spaces, reset, step, state, infos, rendering."""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle
+from pettingzoo import ParallelEnv
+
+from anonloc_env.actions import stack_actions, to_commands
+from anonloc_env.camera import Camera, DetectionSource, Picture
+from anonloc_env.config import EnvConfig
+from anonloc_env.geometry import wrap_angle
+from anonloc_env.observation import ObservationBuilder, observation_space
+from anonloc_env.odometry import Odometry
+from anonloc_env.rewards import EnergyCost, RewardFunction, StepContext
+from anonloc_env.schedule import PictureSchedule
+from anonloc_env.world import World, check_poses, random_poses
+
+RESET_OPTIONS = ("poses",)
+
+ObsDict = dict[str, dict[str, np.ndarray]]
+
+
+class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
+    """N identical robots must each find which detection of an overhead camera's picture is itself.
+
+    | | |
+    |---|---|
+    | Agents | `robot_0` ... `robot_{N-1}`, all alive for the whole episode |
+    | Action shape | `(2,)` float32 in [-1, 1] |
+    | Observation | `Dict` of float32 arrays: the shared picture, own odometry, bumper |
+    | State shape | `(N, 3)` float32: every robot's `(x, y, theta)` |
+    | Import | `anonloc_env.parallel_env(preset=None, **overrides)` |
+
+    ## Description
+    A camera above a walled arena photographs N identical unicycle robots every
+    `picture_interval` seconds. Every robot receives the same picture: an unlabelled, shuffled list
+    of detections `(u, v, theta)` in image coordinates, where robots may be missing and false
+    detections may appear. No robot has an ID and none communicate. Each robot knows only its own
+    velocity commands and wheel odometry, and must work out which row of the picture is itself
+    (Poulet, Guerin and Guinand, ICCAR 2017). pymunk resolves collisions between robots and with
+    the walls.
+
+    ## Action Space
+    `Box(-1, 1, (2,), float32)` per agent: `(v / v_max, w / omega_max)`, the forward speed and
+    the counter-clockwise turn rate held for one control step `dt`. Out-of-range actions are
+    clipped; a missing, misshapen or non-finite action raises a `ValueError` naming the agent.
+    `anonloc_env.to_actions(v, w, robot)` and `to_commands(actions, robot)` convert.
+
+    ## Observation Space
+    A `Dict` of fixed-shape float32 arrays (see `anonloc_env.observation`): `detections`
+    `(D, 3)` and `mask` `(D,)` of the newest picture (shared, read-only, the same object for every
+    agent), `new_picture` `(1,)`, `since_picture` `(1,)` s, the robot's own `odometry`
+    `(dx, dy, dphi)` `(3,)` since the newest picture in its frame at that picture, and `bumper`
+    `(1,)`. With `observation.history = K > 0`, the K previous pictures and the robot's motion
+    between them are added. Observations never contain ground truth.
+
+    ## Rewards
+    Pluggable (`reward_fn`, see `anonloc_env.rewards`). The default, `EnergyCost`, gives
+    `-energy_weight * dt * (|v| + turn_cost * |w|)` per step.
+
+    ## Starting State
+    Random non-overlapping poses with uniform headings, drawn from the generator seeded by
+    `reset(seed=...)`; `reset(options={"poses": array (N, 3)})` sets them exactly. The first
+    picture is taken at reset (unless t = 0 lies in a blackout).
+
+    ## Episode End
+    No terminations. Every agent is truncated after `max_cycles` steps.
+
+    ## Infos
+    `infos[agent]` holds ground truth about the newest picture, for scoring only: `true_index`
+    (row of this robot in it, -1 if it was missed or no picture was taken yet), `pose` (the
+    robot's true `(x, y, theta)` when it was taken, float64, m and rad; the pose at reset before
+    any picture) and `picture` (number of pictures taken so far). Every robot's current pose is
+    `env.state()`.
+
+    ## Arguments
+    `config` (an `EnvConfig`; `parallel_env` builds it from a preset and overrides),
+    `render_mode` (`None`, `"human"` or `"rgb_array"`), `reward_fn` (a `RewardFunction`), and
+    `detector` (a `DetectionSource` to replace the built-in geometric camera).
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "anonloc_v0",
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 20,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        config: EnvConfig | None = None,
+        render_mode: str | None = None,
+        reward_fn: RewardFunction | None = None,
+        detector: DetectionSource | None = None,
+    ) -> None:
+        EzPickle.__init__(self, config, render_mode, reward_fn, detector)
+        self.config = config if config is not None else EnvConfig()
+        if not isinstance(self.config, EnvConfig):
+            raise TypeError(f"config must be an EnvConfig, got {type(self.config).__name__}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {[None, *self.metadata['render_modes']]}, "
+                f"got {render_mode!r}"
+            )
+        if reward_fn is not None and not isinstance(reward_fn, RewardFunction):
+            raise TypeError("reward_fn must have reset(config, rng) and __call__(context) methods")
+        self.render_mode = render_mode
+        self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else EnergyCost()
+        self.camera = Camera(self.config)
+        self.detector: DetectionSource = detector if detector is not None else self.camera
+        self.max_cycles = self.config.max_cycles
+        """Steps before truncation; may be changed between episodes (``parallel_api_test`` does)."""
+
+        n = self.config.n_robots
+        self.possible_agents = [f"robot_{i}" for i in range(n)]
+        self.agents: list[str] = []
+        obs_space = observation_space(self.config, self.camera.capacity)
+        action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        # One space object per agent, built once: seeding one agent's space leaves the others alone.
+        self.observation_spaces = {
+            agent: obs_space if i == 0 else observation_space(self.config, self.camera.capacity)
+            for i, agent in enumerate(self.possible_agents)
+        }
+        self.action_spaces = {
+            agent: action_space if i == 0 else spaces.Box(-1.0, 1.0, (2,), np.float32)
+            for i, agent in enumerate(self.possible_agents)
+        }
+        width, height = self.config.arena_size
+        high = np.tile(np.array([width, height, np.pi], np.float32), (n, 1))
+        low = np.tile(np.array([0.0, 0.0, -np.pi], np.float32), (n, 1))
+        self.state_space = spaces.Box(low, high, (n, 3), np.float32)
+
+        self._all_false = dict.fromkeys(self.possible_agents, False)
+        self._all_true = dict.fromkeys(self.possible_agents, True)
+        self._info_templates: list[dict[str, Any]] = []
+        self._rng: np.random.Generator | None = None
+        self.world: World | None = None
+        self.odometry = Odometry(n, self.config.robot.odometry_noise)
+        self.picture: Picture | None = None
+        self.pictures_taken = 0
+        self.steps = 0
+        self.guesses: dict[str, int | None] = {}
+        """Row each robot currently believes is itself; drawn by ``render`` if set (optional)."""
+        self._renderer: Any = None
+
+    # -- PettingZoo API -------------------------------------------------------------------------
+
+    def observation_space(self, agent: str) -> spaces.Space[Any]:
+        """The observation space of ``agent`` (the same object on every call)."""
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Space[Any]:
+        """The action space of ``agent`` (the same object on every call)."""
+        return self.action_spaces[agent]
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The env's one random generator (seeded by ``reset``)."""
+        if self._rng is None:
+            raise RuntimeError("call reset() before using the environment")
+        return self._rng
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[ObsDict, dict[str, dict[str, Any]]]:
+        """Start an episode.
+
+        Args:
+            seed: seeds the env's generator (``np.random.default_rng(seed)``); ``None`` continues
+                the current stream (or draws fresh entropy on the first reset).
+            options: ``{"poses": (N, 3) array}`` sets the initial poses ``(x, y, theta)`` in m
+                and rad. Other keys are ignored with a warning listing the valid ones.
+        """
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        elif self._rng is None:
+            self._rng = np.random.default_rng()
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            warnings.warn(
+                f"reset options {unknown} are ignored; valid options: {list(RESET_OPTIONS)}",
+                stacklevel=2,
+            )
+        rng = self._rng
+        if "poses" in options:
+            poses = check_poses(self.config, options["poses"])
+        else:
+            poses = random_poses(self.config, rng)
+        self.world = World(self.config, poses)
+        self.odometry = Odometry(self.config.n_robots, self.config.robot.odometry_noise)
+        self.schedule = PictureSchedule(self.config.schedule, self.config.dt, rng)
+        self.builder = ObservationBuilder(self.config, self.camera.capacity)
+        self.reward_fn.reset(self.config, rng)
+        self.agents = self.possible_agents[:]
+        self.steps = 0
+        self.pictures_taken = 0
+        self.picture = None
+        self.guesses = {}
+        if self._maybe_take_picture(0.0) is None:
+            self._update_info_templates()
+        n = self.config.n_robots
+        observations = self.builder.build(
+            self.agents,
+            self.odometry.since_picture,
+            np.zeros(n, bool),
+            self.picture is not None,
+            0.0,
+        )
+        infos = self._infos()
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def step(
+        self, actions: dict[str, Any]
+    ) -> tuple[
+        ObsDict,
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """Hold every robot's command for ``dt``, advance physics once, maybe take a picture."""
+        if not self.agents:
+            raise RuntimeError("step() called on a finished episode; call reset() first")
+        world = self.world
+        assert world is not None
+        stacked = stack_actions(actions, self.agents)
+        v, w = to_commands(stacked, self.config.robot)
+        motion = world.step(v, w)
+        self.odometry.integrate(motion, self.rng)
+        self.steps += 1
+        time = self.steps * self.config.dt
+        between = self._maybe_take_picture(time)
+        context = StepContext(
+            config=self.config,
+            time=time,
+            v=v,
+            w=w,
+            contact=motion.contact,
+            picture=self.picture if between is not None else None,
+            odometry_between=between,
+        )
+        reward_values = np.asarray(self.reward_fn(context), dtype=np.float64)
+        agents = self.agents
+        observations = self.builder.build(
+            agents, self.odometry.since_picture, motion.contact, between is not None, time
+        )
+        rewards = dict(zip(agents, reward_values.tolist(), strict=True))
+        truncated = self.steps >= self.max_cycles
+        terminations = self._all_false.copy()
+        truncations = self._all_true.copy() if truncated else self._all_false.copy()
+        infos = self._infos()
+        if truncated:
+            self.agents = []
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def _maybe_take_picture(self, time: float) -> np.ndarray | None:
+        """Take a picture if one is due; return the odometry interval it closes (or None)."""
+        if not self.schedule.take_now(time):
+            return None
+        assert self.world is not None
+        self.picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
+        self.pictures_taken += 1
+        between = self.odometry.mark_picture()
+        self.builder.add_picture(self.picture, between)
+        self._update_info_templates()
+        return between
+
+    def _update_info_templates(self) -> None:
+        """Rebuild the per-agent infos after a picture (or at reset): they change only then."""
+        assert self.world is not None
+        poses = self.world.poses.copy()
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        poses.flags.writeable = False
+        count = self.pictures_taken
+        if self.picture is not None:
+            rows = self.picture.true_index.tolist()
+        else:
+            rows = [-1] * self.config.n_robots
+        self._info_templates = [
+            {"true_index": row, "pose": pose, "picture": count}
+            for row, pose in zip(rows, list(poses), strict=True)
+        ]
+
+    def _infos(self) -> dict[str, dict[str, Any]]:
+        # Fresh shallow copies: a wrapper that adds keys to one step's infos leaves the next alone.
+        return {
+            agent: info.copy()
+            for agent, info in zip(self.possible_agents, self._info_templates, strict=True)
+        }
+
+    def state(self) -> np.ndarray:
+        """Every robot's true pose ``(x, y, theta)`` as a ``(N, 3)`` float32 array (m, rad)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before state()")
+        poses = self.world.poses.astype(np.float32)
+        poses[:, 2] = wrap_angle(self.world.poses[:, 2])
+        return poses
+
+    @property
+    def time(self) -> float:
+        """Time since reset (s)."""
+        return self.steps * self.config.dt
+
+    def render(self) -> np.ndarray | None:
+        """Draw the arena, robots, newest detections and guesses (``render_mode`` decides how)."""
+        if self.render_mode is None:
+            warnings.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' or 'human'",
+                stacklevel=2,
+            )
+            return None
+        if self.world is None:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            from anonloc_env.render import Renderer  # pygame is an optional extra
+
+            self._renderer = Renderer(self.config, self.camera, self.render_mode)
+        return self._renderer.draw(
+            self.world.poses, self.picture, self.guesses, self.possible_agents, self.time
+        )
+
+    def close(self) -> None:
+        """Release the rendering window, if any."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __repr__(self) -> str:
+        cfg = self.config
+        return (
+            f"AnonLocEnv(n_robots={cfg.n_robots}, arena_size={cfg.arena_size}, dt={cfg.dt}, "
+            f"picture_interval={cfg.picture_interval}, max_cycles={self.max_cycles})"
+        )

@@ -1,0 +1,175 @@
+"""Per-agent observations: the shared newest picture, plus each robot's own odometry.
+
+Every observation is a dict of fixed-shape float32 arrays (SB3's ``MultiInputPolicy`` takes it as
+is). The picture arrays are shared by all agents: one read-only array per picture, the same object
+in every agent's dict. Per-agent arrays are read-only row views of one ``(N, ...)`` array built
+per step. Arrays are never changed after they are handed out, so an observation kept by the
+caller stays valid.
+
+Keys (D = max detections, K = history length):
+
+==================== ========== ==========================================================
+key                  shape      meaning
+==================== ========== ==========================================================
+detections           (D, 3)     newest picture's rows (u, v, theta), zero-padded, shuffled
+mask                 (D,)       1 where ``detections`` holds a row, else 0
+new_picture          (1,)       1 if the newest picture arrived at this step, else 0
+since_picture        (1,)       time since the newest picture (s); since reset if none yet
+odometry             (3,)       own (dx, dy, dphi) since the newest picture, in the robot's
+                                frame at that picture (m, m, rad)
+bumper               (1,)       1 if the robot touched a wall or robot during this step
+history_detections   (K, D, 3)  the K pictures before the newest, most recent first
+history_mask         (K, D)     their masks (all 0 for pictures not taken yet)
+history_odometry     (K, 3)     own motion from history picture k to the next newer one
+history_interval     (K,)       time from history picture k to the next newer one (s)
+==================== ========== ==========================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from anonloc_env.camera import Picture
+from anonloc_env.config import EnvConfig
+
+
+def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
+    """The observation space of one agent (see the module table)."""
+    inf = np.inf
+    d, k = capacity, config.observation.history
+    entries: dict[str, spaces.Space[Any]] = {
+        "detections": spaces.Box(-inf, inf, (d, 3), np.float32),
+        "mask": spaces.Box(0.0, 1.0, (d,), np.float32),
+        "new_picture": spaces.Box(0.0, 1.0, (1,), np.float32),
+        "since_picture": spaces.Box(0.0, inf, (1,), np.float32),
+        "odometry": spaces.Box(-inf, inf, (3,), np.float32),
+        "bumper": spaces.Box(0.0, 1.0, (1,), np.float32),
+    }
+    if k > 0:
+        entries["history_detections"] = spaces.Box(-inf, inf, (k, d, 3), np.float32)
+        entries["history_mask"] = spaces.Box(0.0, 1.0, (k, d), np.float32)
+        entries["history_odometry"] = spaces.Box(-inf, inf, (k, 3), np.float32)
+        entries["history_interval"] = spaces.Box(0.0, inf, (k,), np.float32)
+    return spaces.Dict(entries)
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+class ObservationBuilder:
+    """Keeps the picture arrays and history, and assembles every agent's observation dict.
+
+    Args:
+        config: the task configuration.
+        capacity: rows per picture (``D``).
+    """
+
+    def __init__(self, config: EnvConfig, capacity: int) -> None:
+        self.n = config.n_robots
+        self.capacity = capacity
+        self.history = config.observation.history
+        k, d, n = self.history, capacity, self.n
+        self._shared: dict[str, np.ndarray] = {
+            "detections": _frozen(np.zeros((d, 3), np.float32)),
+            "mask": _frozen(np.zeros(d, np.float32)),
+        }
+        if k > 0:
+            self._shared["history_detections"] = _frozen(np.zeros((k, d, 3), np.float32))
+            self._shared["history_mask"] = _frozen(np.zeros((k, d), np.float32))
+            self._shared["history_interval"] = _frozen(np.zeros(k, np.float32))
+            self._history_odometry = _frozen(np.zeros((n, k, 3), np.float32))
+            self._history_rows: list[np.ndarray] = list(self._history_odometry)
+        self._picture_time: float | None = None
+        self._flags = {
+            True: _frozen(np.ones(1, np.float32)),
+            False: _frozen(np.zeros(1, np.float32)),
+        }
+
+    def add_picture(self, picture: Picture, odometry_between: np.ndarray) -> None:
+        """Make ``picture`` the newest; ``odometry_between`` ``(N, 3)`` is each robot's own motion
+        from the previous picture to this one."""
+        d = self.capacity
+        rows = picture.detections.shape[0]
+        detections = np.zeros((d, 3), np.float32)
+        detections[:rows] = picture.detections
+        mask = np.zeros(d, np.float32)
+        mask[:rows] = 1.0
+        if self.history > 0:
+            self._push_history(picture.time, odometry_between)
+        self._shared["detections"] = _frozen(detections)
+        self._shared["mask"] = _frozen(mask)
+        self._picture_time = picture.time
+
+    def _push_history(self, time: float, odometry_between: np.ndarray) -> None:
+        shared = self._shared
+        if self._picture_time is None:
+            return  # the first picture has no predecessor
+        hist_det = np.concatenate([shared["detections"][None], shared["history_detections"][:-1]])
+        hist_mask = np.concatenate([shared["mask"][None], shared["history_mask"][:-1]])
+        interval = np.concatenate(
+            [[time - self._picture_time], shared["history_interval"][:-1]]
+        ).astype(np.float32)
+        odo = np.concatenate(
+            [odometry_between[:, None, :].astype(np.float32), self._history_odometry[:, :-1]],
+            axis=1,
+        )
+        shared["history_detections"] = _frozen(hist_det)
+        shared["history_mask"] = _frozen(hist_mask)
+        shared["history_interval"] = _frozen(interval)
+        self._history_odometry = _frozen(odo)
+        self._history_rows = list(odo)
+
+    def build(
+        self,
+        agents: Sequence[str],
+        odometry: np.ndarray,
+        bumper: np.ndarray,
+        new_picture: bool,
+        time: float,
+    ) -> dict[str, dict[str, np.ndarray]]:
+        """Every agent's observation; ``agents`` are in robot order, ``odometry`` is ``(N, 3)``
+        and ``bumper`` ``(N,)`` bool."""
+        since = time - (self._picture_time if self._picture_time is not None else 0.0)
+        shared = self._shared
+        detections, mask = shared["detections"], shared["mask"]
+        flag = self._flags[new_picture]
+        since_arr = _frozen(np.array([since], np.float32))
+        odo_rows = list(_frozen(odometry.astype(np.float32)))
+        bump_rows = list(_frozen(bumper.astype(np.float32).reshape(-1, 1)))
+        if self.history == 0:
+            return {
+                agent: {
+                    "detections": detections,
+                    "mask": mask,
+                    "new_picture": flag,
+                    "since_picture": since_arr,
+                    "odometry": odo,
+                    "bumper": bump,
+                }
+                for agent, odo, bump in zip(agents, odo_rows, bump_rows, strict=True)
+            }
+        hist_det, hist_mask = shared["history_detections"], shared["history_mask"]
+        hist_interval = shared["history_interval"]
+        return {
+            agent: {
+                "detections": detections,
+                "mask": mask,
+                "new_picture": flag,
+                "since_picture": since_arr,
+                "odometry": odo,
+                "bumper": bump,
+                "history_detections": hist_det,
+                "history_mask": hist_mask,
+                "history_odometry": hist_odo,
+                "history_interval": hist_interval,
+            }
+            for agent, odo, bump, hist_odo in zip(
+                agents, odo_rows, bump_rows, self._history_rows, strict=True
+            )
+        }

@@ -1,0 +1,162 @@
+"""Named scenarios and the resolution of keyword overrides on top of them.
+
+``make_config(preset, **overrides)`` is what :func:`anonloc_env.parallel_env` calls. Overrides apply
+on top of the preset; a nested dict changes only the fields it names; an unknown name is an error
+that lists the valid ones.
+
+The three ``paper-*`` presets recreate the conditions of section III of Poulet, Guerin and Guinand
+(ICCAR 2017): two square robots, a control step of 0.01 s, a picture every 10 s, speeds and turn
+rates as in the paper, and a camera whose scale varies from 20.8 to 22.07 image units per world unit
+across the arena (a 4.24 degree tilt at 10 units). Their noise levels are derived from the paper's
+own second row of results; ``docs/calibration.md`` gives the derivation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from anonloc_env.config import (
+    CameraConfig,
+    EnvConfig,
+    ObservationConfig,
+    RewardConfig,
+    RobotConfig,
+    ScheduleConfig,
+)
+
+_SECTION_TYPES: dict[str, type] = {
+    "robot": RobotConfig,
+    "camera": CameraConfig,
+    "schedule": ScheduleConfig,
+    "observation": ObservationConfig,
+    "reward": RewardConfig,
+}
+
+#: Shortcuts accepted at the top level, mapped to (section, field).
+_SHORTCUTS = {"picture_interval": ("schedule", "picture_interval")}
+
+_PAPER_ROBOT = RobotConfig(
+    shape="square", size=0.3, v_max=0.5, omega_max=math.radians(20.0), odometry_noise=0.0
+)
+# 21.42 units/world unit at the centre and sin(tilt)/height = 0.0074 give 20.8 to 22.07 across
+# the 8-unit arena, the range the paper measured.
+_PAPER_CAMERA = CameraConfig(
+    scale=21.42,
+    tilt_deg=4.24,
+    height=10.0,
+    pixel_noise=0.5,
+    orientation=True,
+    orientation_noise_deg=1.4,
+)
+
+
+def _paper(camera: CameraConfig) -> EnvConfig:
+    return EnvConfig(
+        n_robots=2,
+        arena_size=(8.0, 8.0),
+        dt=0.01,
+        max_cycles=4000,
+        robot=_PAPER_ROBOT,
+        camera=camera,
+        schedule=ScheduleConfig(picture_interval=10.0),
+    )
+
+
+PRESETS: dict[str, EnvConfig] = {
+    "default": EnvConfig(
+        n_robots=4,
+        arena_size=(4.0, 4.0),
+        dt=0.05,
+        max_cycles=600,
+        camera=CameraConfig(scale=100.0, pixel_noise=1.0, orientation_noise_deg=2.0),
+        schedule=ScheduleConfig(picture_interval=1.0),
+    ),
+    "paper-angular": _paper(_PAPER_CAMERA),
+    "paper-linear": _paper(_PAPER_CAMERA),
+    "paper-motion": _paper(_PAPER_CAMERA),
+}
+"""The named scenarios. ``default`` is the built-in scenario of the README's main job."""
+
+
+def preset_names() -> list[str]:
+    """The valid preset names."""
+    return list(PRESETS)
+
+
+def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
+    """Build an :class:`EnvConfig` from a named preset and keyword overrides.
+
+    Args:
+        preset: a name from :data:`PRESETS`; ``None`` means ``"default"``.
+        **overrides: top-level fields of :class:`EnvConfig` (``n_robots``, ``arena_size``, ``dt``,
+            ``max_cycles``), the shortcut ``picture_interval``, and the sections ``robot``,
+            ``camera``, ``schedule``, ``observation``, ``reward``, each either a dict of the fields
+            to change or a whole config object.
+
+    Raises:
+        ValueError: an unknown preset, override or field name (the message lists the valid
+            ones), or a value out of range.
+        TypeError: a section given as something other than a dict or its config class.
+    """
+    name = "default" if preset is None else preset
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}{_hint(name, PRESETS)}; valid: {list(PRESETS)}")
+    base = PRESETS[name]
+    top_fields = {f.name for f in dataclasses.fields(EnvConfig)}
+    valid = sorted(top_fields | set(_SHORTCUTS))
+    changes: dict[str, Any] = {}
+    sections: dict[str, dict[str, Any]] = {}
+    for key, value in overrides.items():
+        if key in _SHORTCUTS:
+            section, field_name = _SHORTCUTS[key]
+            sections.setdefault(section, {})[field_name] = value
+        elif key in _SECTION_TYPES:
+            if isinstance(value, _SECTION_TYPES[key]):
+                changes[key] = value
+            elif isinstance(value, Mapping):
+                merged = sections.setdefault(key, {})
+                for field_name, field_value in value.items():
+                    if field_name in merged and merged[field_name] != field_value:
+                        raise ValueError(
+                            f"{key}.{field_name} is given twice with different values "
+                            f"({merged[field_name]!r} and {field_value!r})"
+                        )
+                    merged[field_name] = field_value
+            else:
+                raise TypeError(
+                    f"{key} must be a dict of fields or a {_SECTION_TYPES[key].__name__}, "
+                    f"got {type(value).__name__}"
+                )
+        elif key in top_fields:
+            changes[key] = value
+        else:
+            raise ValueError(f"unknown override {key!r}{_hint(key, valid)}; valid: {valid}")
+    for section, fields in sections.items():
+        current = changes.get(section, getattr(base, section))
+        changes[section] = replace_fields(current, section, fields)
+    return dataclasses.replace(base, **changes)
+
+
+def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:
+    """``dataclasses.replace`` that names the valid fields when given an unknown one."""
+    valid = [f.name for f in dataclasses.fields(obj)]
+    for key in fields:
+        if key not in valid:
+            raise ValueError(
+                f"unknown field {prefix}.{key}{_hint(key, valid)}; valid {prefix} fields: {valid}"
+            )
+    return dataclasses.replace(obj, **fields)
+
+
+def config_to_dict(config: EnvConfig) -> dict[str, Any]:
+    """The config as plain nested dicts and lists, e.g. to record it next to results."""
+    return dataclasses.asdict(config)
+
+
+def _hint(name: str, choices: Any) -> str:
+    close = difflib.get_close_matches(name, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""

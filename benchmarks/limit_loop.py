@@ -1,0 +1,84 @@
+"""The speed limit of anonloc's design: the same pymunk bodies, with nothing but the essentials.
+
+Each step: compute world velocities from an ``(N, 2)`` command array, write them with
+``pymunk.batch``, step the space once, read the poses back with ``pymunk.batch``, shuffle a picture
+every ``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
+env's) from views of shared arrays. No validation, odometry, rewards, infos or schedule.
+
+The env cannot be faster than this; ``bench_env.py`` reports the env's speed as a fraction of it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+import pymunk.batch as pmb
+
+
+class LimitLoop:
+    """A bare pymunk loop over ``n`` square robots in an arena of side ``side`` (m)."""
+
+    def __init__(self, n: int, side: float, dt: float, steps_per_picture: int, seed: int) -> None:
+        self.n, self.dt, self.steps_per_picture = n, dt, steps_per_picture
+        self.rng = np.random.default_rng(seed)
+        self.space = pymunk.Space(threaded=False)
+        grid = math.ceil(math.sqrt(n))
+        for i in range(n):
+            body = pymunk.Body(1.0, math.inf)
+            body.position = ((i % grid + 0.5) * side / grid, (i // grid + 0.5) * side / grid)
+            self.space.add(body, pymunk.Poly.create_box(body, (0.2, 0.2)))
+        r = 0.1
+        corners = [(-r, -r), (side + r, -r), (side + r, side + r), (-r, side + r)]
+        for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
+            self.space.add(pymunk.Segment(self.space.static_body, a, b, r))
+        buf = pmb.Buffer()
+        pmb.get_space_bodies(self.space, pmb.BodyFields.BODY_ID, buf)
+        ids = np.frombuffer(buf.int_buf(), dtype=np.uintp)
+        assert ids[-1] == self.space.static_body.id, "batch order: the static body comes last"
+        self.velocity = np.zeros((n + 1, 3))
+        self.set_buf = pmb.Buffer()
+        self.set_buf.set_float_buf(self.velocity.reshape(-1))
+        self.get_buf = pmb.Buffer()
+        self.poses = np.zeros((n, 3))
+        self.agents = [f"robot_{i}" for i in range(n)]
+        self.picture = np.zeros((n, 3), np.float32)
+        self.mask = np.ones(n, np.float32)
+        self.flag = np.zeros(1, np.float32)
+        self.steps = 0
+
+    def step(self, commands: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """One step with ``commands`` ``(N, 2)`` = (v, w)."""
+        n = self.n
+        theta = self.poses[:, 2]
+        self.velocity[:n, 0] = commands[:, 0] * np.cos(theta)
+        self.velocity[:n, 1] = commands[:, 0] * np.sin(theta)
+        self.velocity[:n, 2] = commands[:, 1]
+        pmb.set_space_bodies(
+            self.space, pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY, self.set_buf
+        )
+        self.space.step(self.dt)
+        self.get_buf.clear()
+        pmb.get_space_bodies(
+            self.space, pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE, self.get_buf
+        )
+        self.poses = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 3)[:n].copy()
+        self.steps += 1
+        if self.steps % self.steps_per_picture == 0:
+            self.picture = self.poses[self.rng.permutation(n)].astype(np.float32)
+        odometry = self.poses.astype(np.float32)
+        bumper = np.zeros((n, 1), np.float32)
+        since = np.zeros(1, np.float32)
+        picture, mask, flag = self.picture, self.mask, self.flag
+        return {
+            agent: {
+                "detections": picture,
+                "mask": mask,
+                "new_picture": flag,
+                "since_picture": since,
+                "odometry": odo,
+                "bumper": bump,
+            }
+            for agent, odo, bump in zip(self.agents, list(odometry), list(bumper), strict=True)
+        }

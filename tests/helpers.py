@@ -1,0 +1,29 @@
+"""Small helpers shared by the tests."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+import anonloc_env
+
+
+def constant_actions(env: Any, action: tuple[float, float]) -> dict[str, np.ndarray]:
+    """The same action for every live agent."""
+    return {a: np.array(action, dtype=np.float32) for a in env.agents}
+
+
+def rollout(
+    env: anonloc_env.AnonLocEnv, seed: int, steps: int, action_seed: int = 0
+) -> list[tuple[Any, ...]]:
+    """Reset with ``seed`` and play ``steps`` seeded random actions; return every step's output."""
+    obs, infos = env.reset(seed=seed)
+    out: list[tuple[Any, ...]] = [(obs, infos)]
+    rng = np.random.default_rng(action_seed)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
+        out.append(env.step(actions))
+    return out
