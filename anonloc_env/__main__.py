@@ -31,8 +31,11 @@ def main(argv: list[str] | None = None) -> int:
         actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
         _, reward, *_ = env.step(actions)
         rewards += sum(reward.values())
-    env.guesses = {a: int(env.picture.true_index[i]) for i, a in enumerate(env.possible_agents)}
+    if env.picture is not None:  # draw each robot's true row as its "guess"
+        truth = env.picture.true_index
+        env.guesses = {a: int(truth[i]) for i, a in enumerate(env.possible_agents)}
     frame = env.render()
+    assert frame is not None  # rgb_array mode always returns a frame
     import pygame  # the render extra is installed if render() worked
 
     surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))

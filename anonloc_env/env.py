@@ -15,7 +15,7 @@ from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space
-from anonloc_env.odometry import Odometry
+from anonloc_env.odometry import Interval, Odometry
 from anonloc_env.rewards import EnergyCost, RewardFunction, StepContext
 from anonloc_env.schedule import PictureSchedule
 from anonloc_env.world import World, check_poses, random_poses
@@ -248,7 +248,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             w=w,
             contact=motion.contact,
             picture=self.picture if between is not None else None,
-            odometry_between=between,
+            interval=between if self.pictures_taken > 1 else None,
         )
         reward_values = np.asarray(self.reward_fn(context), dtype=np.float64)
         agents = self.agents
@@ -266,14 +266,14 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    def _maybe_take_picture(self, time: float) -> np.ndarray | None:
+    def _maybe_take_picture(self, time: float) -> Interval | None:
         """Take a picture if one is due; return the odometry interval it closes (or None)."""
         if not self.schedule.take_now(time):
             return None
         assert self.world is not None
         self.picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
         self.pictures_taken += 1
-        between = self.odometry.mark_picture()
+        between = self.odometry.mark_picture(self.config.robot.v_max * self.config.dt)
         self.builder.add_picture(self.picture, between)
         self._update_info_templates()
         return between

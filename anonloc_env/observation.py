@@ -17,7 +17,10 @@ new_picture          (1,)       1 if the newest picture arrived at this step, el
 since_picture        (1,)       time since the newest picture (s); since reset if none yet
 odometry             (3,)       own (dx, dy, dphi) since the newest picture, in the robot's
                                 frame at that picture (m, m, rad)
-bumper               (1,)       1 if the robot touched a wall or robot during this step
+bumper               (1,)       1 if a contact pushed or blocked the robot during this step
+odometry_between     (3,)       own (dx, dy, dphi) from the previous picture to the newest,
+                                in the robot's frame at the previous picture (0 before)
+interval             (1,)       time between the previous picture and the newest (s)
 history_detections   (K, D, 3)  the K pictures before the newest, most recent first
 history_mask         (K, D)     their masks (all 0 for pictures not taken yet)
 history_odometry     (K, 3)     own motion from history picture k to the next newer one
@@ -35,6 +38,7 @@ from gymnasium import spaces
 
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
+from anonloc_env.odometry import Interval
 
 
 def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
@@ -48,6 +52,8 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
         "since_picture": spaces.Box(0.0, inf, (1,), np.float32),
         "odometry": spaces.Box(-inf, inf, (3,), np.float32),
         "bumper": spaces.Box(0.0, 1.0, (1,), np.float32),
+        "odometry_between": spaces.Box(-inf, inf, (3,), np.float32),
+        "interval": spaces.Box(0.0, inf, (1,), np.float32),
     }
     if k > 0:
         entries["history_detections"] = spaces.Box(-inf, inf, (k, d, 3), np.float32)
@@ -86,14 +92,17 @@ class ObservationBuilder:
             self._history_odometry = _frozen(np.zeros((n, k, 3), np.float32))
             self._history_rows: list[np.ndarray] = list(self._history_odometry)
         self._picture_time: float | None = None
+        self._interval = _frozen(np.zeros(1, np.float32))
+        self._between_rows = list(_frozen(np.zeros((n, 3), np.float32)))
         self._flags = {
             True: _frozen(np.ones(1, np.float32)),
             False: _frozen(np.zeros(1, np.float32)),
         }
 
-    def add_picture(self, picture: Picture, odometry_between: np.ndarray) -> None:
-        """Make ``picture`` the newest; ``odometry_between`` ``(N, 3)`` is each robot's own motion
-        from the previous picture to this one."""
+    def add_picture(self, picture: Picture, interval: Interval) -> None:
+        """Make ``picture`` the newest; ``interval`` is each robot's own motion from the previous
+        picture to this one."""
+        odometry_between = np.column_stack([interval.d, interval.dphi])
         d = self.capacity
         rows = picture.detections.shape[0]
         detections = np.zeros((d, 3), np.float32)
@@ -104,6 +113,9 @@ class ObservationBuilder:
             self._push_history(picture.time, odometry_between)
         self._shared["detections"] = _frozen(detections)
         self._shared["mask"] = _frozen(mask)
+        if self._picture_time is not None:
+            self._interval = _frozen(np.array([picture.time - self._picture_time], np.float32))
+            self._between_rows = list(_frozen(odometry_between.astype(np.float32)))
         self._picture_time = picture.time
 
     def _push_history(self, time: float, odometry_between: np.ndarray) -> None:
@@ -139,6 +151,7 @@ class ObservationBuilder:
         shared = self._shared
         detections, mask = shared["detections"], shared["mask"]
         flag = self._flags[new_picture]
+        interval = self._interval
         since_arr = _frozen(np.array([since], np.float32))
         odo_rows = list(_frozen(odometry.astype(np.float32)))
         bump_rows = list(_frozen(bumper.astype(np.float32).reshape(-1, 1)))
@@ -151,8 +164,12 @@ class ObservationBuilder:
                     "since_picture": since_arr,
                     "odometry": odo,
                     "bumper": bump,
+                    "odometry_between": between,
+                    "interval": interval,
                 }
-                for agent, odo, bump in zip(agents, odo_rows, bump_rows, strict=True)
+                for agent, odo, bump, between in zip(
+                    agents, odo_rows, bump_rows, self._between_rows, strict=True
+                )
             }
         hist_det, hist_mask = shared["history_detections"], shared["history_mask"]
         hist_interval = shared["history_interval"]
@@ -164,12 +181,14 @@ class ObservationBuilder:
                 "since_picture": since_arr,
                 "odometry": odo,
                 "bumper": bump,
+                "odometry_between": between,
+                "interval": interval,
                 "history_detections": hist_det,
                 "history_mask": hist_mask,
                 "history_odometry": hist_odo,
                 "history_interval": hist_interval,
             }
-            for agent, odo, bump, hist_odo in zip(
-                agents, odo_rows, bump_rows, self._history_rows, strict=True
+            for agent, odo, bump, between, hist_odo in zip(
+                agents, odo_rows, bump_rows, self._between_rows, self._history_rows, strict=True
             )
         }

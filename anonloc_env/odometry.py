@@ -9,9 +9,54 @@ noise the world displacement between two pictures equals ``R(theta_k) d`` to rou
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from anonloc_env.world import Motion
+
+
+@dataclass(frozen=True)
+class Interval:
+    """Each robot's own motion between two consecutive pictures (arrays over R robots).
+
+    Attributes:
+        d: ``(R, 2)`` displacement in the robot's frame at the first picture (m).
+        dphi: ``(R,)`` heading change (rad).
+        path: ``(R,)`` distance rolled, sum of ``|ds|`` (m).
+        sum_ds2: ``(R,)`` sum over control steps of the squared distance (m^2).
+        sum_dth2: ``(R,)`` sum over control steps of the squared turn (rad^2).
+        push: ``(R,)`` how far contacts may have moved the robot unseen by its wheels (m): the
+            distance it could drive during the control steps its bumper fired (0 if none).
+    """
+
+    d: np.ndarray
+    dphi: np.ndarray
+    path: np.ndarray
+    sum_ds2: np.ndarray
+    sum_dth2: np.ndarray
+    push: np.ndarray | None = None
+
+    @classmethod
+    def exact(cls, d: np.ndarray, dphi: np.ndarray) -> Interval:
+        """An interval known without odometry noise (path = straight distance)."""
+        d = np.atleast_2d(np.asarray(d, dtype=np.float64))
+        zeros = np.zeros(len(d))
+        return cls(d, np.atleast_1d(np.asarray(dphi, float)), np.hypot(*d.T), zeros, zeros)
+
+    def variances(self, noise: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(var_d, var_dphi)``: variance of each component of ``d`` (m^2) and of ``dphi``.
+
+        Per-step multiplicative noise ``noise`` on distance and turn: the distance errors add
+        ``noise^2 sum ds^2``; heading errors accumulated along the path swing the displacement by
+        about ``path^2 noise^2 sum dth^2 / 3``; split evenly over the two components. A push of
+        up to ``push`` metres adds the variance of a uniform offset, ``push^2 / 3``.
+        """
+        var_dphi = noise**2 * self.sum_dth2
+        var_d = noise**2 * (self.sum_ds2 + self.path**2 * self.sum_dth2 / 3.0) / 2.0
+        if self.push is not None:
+            var_d = var_d + self.push**2 / 3.0
+        return var_d, var_dphi
 
 
 class Odometry:
@@ -28,6 +73,13 @@ class Odometry:
         self.noise = noise
         self.since_picture = np.zeros((n, 3))
         """``(N, 3)`` own-frame ``(dx, dy, dphi)`` since the latest picture (m, m, rad)."""
+        self._start_interval()
+
+    def _start_interval(self) -> None:
+        self.path = np.zeros(self.n)
+        self.sum_ds2 = np.zeros(self.n)
+        self.sum_dth2 = np.zeros(self.n)
+        self.contact_steps = np.zeros(self.n)
 
     def integrate(self, motion: Motion, rng: np.random.Generator) -> None:
         """Add one control step of wheel motion (with noise drawn from ``rng`` if any)."""
@@ -36,6 +88,12 @@ class Odometry:
             factors = 1.0 + self.noise * rng.standard_normal((2, self.n))
             forward = forward * factors[0]
             turned = turned * factors[1]
+        step_ds = np.abs(forward).sum(axis=0) if len(forward) > 1 else np.abs(forward[0])
+        step_dth = turned.sum(axis=0) if len(turned) > 1 else turned[0]
+        self.path += step_ds
+        self.sum_ds2 += step_ds**2
+        self.sum_dth2 += step_dth**2
+        self.contact_steps += motion.contact
         odo = self.since_picture
         for ds, dth in zip(forward, turned, strict=True):
             phi = odo[:, 2]
@@ -43,8 +101,22 @@ class Odometry:
             odo[:, 1] += ds * np.sin(phi)
             odo[:, 2] += dth
 
-    def mark_picture(self) -> np.ndarray:
-        """Start a new interval at a picture; return the ``(N, 3)`` motion of the one just ended."""
+    def mark_picture(self, push_per_step: float) -> Interval:
+        """Start a new interval at a picture; return the one just ended.
+
+        Args:
+            push_per_step: how far a contact may move a robot in one control step (m); a robot's
+                ``push`` is this times the number of steps it was in contact.
+        """
         ended = self.since_picture
+        interval = Interval(
+            d=ended[:, :2].copy(),
+            dphi=ended[:, 2].copy(),
+            path=self.path,
+            sum_ds2=self.sum_ds2,
+            sum_dth2=self.sum_dth2,
+            push=self.contact_steps * push_per_step,
+        )
         self.since_picture = np.zeros((self.n, 3))
-        return ended
+        self._start_interval()
+        return interval

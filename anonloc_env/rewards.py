@@ -19,6 +19,7 @@ import numpy as np
 
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
+from anonloc_env.odometry import Interval
 
 
 @dataclass(frozen=True)
@@ -32,8 +33,8 @@ class StepContext:
         w: ``(N,)`` turn rate commands (rad/s), after clipping.
         contact: ``(N,)`` True where a robot touched a wall or another robot.
         picture: the picture taken at the end of this step, or None.
-        odometry_between: ``(N, 3)`` each robot's own motion ``(dx, dy, dphi)`` between the
-            previous picture and ``picture`` (robot frame at the previous picture), or None.
+        interval: each robot's own motion between the previous picture and ``picture`` (see
+            :class:`anonloc_env.odometry.Interval`), or None if no picture came before it.
     """
 
     config: EnvConfig
@@ -42,7 +43,7 @@ class StepContext:
     w: np.ndarray
     contact: np.ndarray
     picture: Picture | None
-    odometry_between: np.ndarray | None
+    interval: Interval | None
 
 
 @runtime_checkable

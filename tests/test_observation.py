@@ -9,7 +9,17 @@ import anonloc_env
 from anonloc_env.geometry import rotate
 from tests.helpers import constant_actions
 
-KEYS = {"detections", "mask", "new_picture", "since_picture", "odometry", "bumper"}
+KEYS = {
+    "detections",
+    "mask",
+    "new_picture",
+    "since_picture",
+    "odometry",
+    "bumper",
+    "odometry_between",
+    "interval",
+}
+OWN = {"odometry", "bumper", "odometry_between", "history_odometry"}
 HISTORY_KEYS = {"history_detections", "history_mask", "history_odometry", "history_interval"}
 
 
@@ -36,10 +46,15 @@ def test_ground_truth_is_in_infos_and_never_in_observations() -> None:
         for agent in env.agents:
             assert set(obs[agent]) == KEYS | HISTORY_KEYS
             assert set(infos[agent]) == {"true_index", "pose", "picture"}
-        shared = KEYS - {"odometry", "bumper"} | HISTORY_KEYS - {"history_odometry"}
+        shared = (KEYS | HISTORY_KEYS) - OWN
         for key in shared:
             assert all(obs[a][key] is obs["robot_0"][key] for a in env.agents), key
         if obs["robot_0"]["new_picture"][0]:
+            # The whole interval's own motion arrives with the picture.
+            for i, agent in enumerate(env.agents):
+                between = obs[agent]["odometry_between"].astype(float)
+                moved = rotate(between[:2], start[i, 2])
+                np.testing.assert_allclose(moved, env.world.poses[i, :2] - start[i, :2], atol=1e-5)
             start = env.world.poses.copy()
         else:
             # Own odometry is exactly the robot's own motion since the picture, nothing more.

@@ -1,0 +1,185 @@
+"""Excitations: what a robot does between pictures so that it can be recognised.
+
+Each excitation drives R robots at once, every robot with its own random generator (a robot's
+choices never depend on another's). ``commands(step, dt)`` returns physical commands ``v`` (m/s) and
+``w`` (rad/s), clipped by the env to the robot's limits.
+
+Defaults follow section III of the paper: turn in place counter-clockwise at up to 9 deg/s
+(angular), drive straight at up to 0.1 units/s (linear), or random motion with speeds in
+[0.1, 0.5] units/s and turn rates in [-20, 20] deg/s changed at random times every 0 to 3 s, turning
+in place at a random rate after a bump (motion).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from baselines.observations import Step
+
+
+class Excitation:
+    """Base class: holds one generator per robot."""
+
+    def __init__(self) -> None:
+        self.rngs: list[np.random.Generator] = []
+
+    @property
+    def n(self) -> int:
+        """Number of robots driven."""
+        return len(self.rngs)
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        """Start an episode; ``rngs`` has one generator per robot."""
+        self.rngs = list(rngs)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(v, w)`` for every robot at this step."""
+        raise NotImplementedError
+
+    def _draw(self, low: float, high: float, who: np.ndarray) -> np.ndarray:
+        return np.array([self.rngs[i].uniform(low, high) for i in who])
+
+
+class Still(Excitation):
+    """Do nothing (a robot that only watches)."""
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(self.n), np.zeros(self.n)
+
+
+@dataclass
+class AngularSettings:
+    """Turn in place at a rate drawn uniformly in ``(0, max_rate]`` rad/s at every picture.
+
+    ``counter_clockwise=False`` also draws negative rates.
+    """
+
+    max_rate: float = math.radians(9.0)
+    counter_clockwise: bool = True
+
+
+class Angular(Excitation):
+    """Paper II.A: turn in place at a new random rate after every picture."""
+
+    def __init__(self, settings: AngularSettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or AngularSettings()
+        self.rate = np.zeros(0)
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.rate = np.zeros(self.n)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        if step.new_picture:
+            s = self.settings
+            low = 0.0 if s.counter_clockwise else -s.max_rate
+            self.rate = self._draw(low, s.max_rate, np.arange(self.n))
+        return np.zeros(self.n), self.rate.copy()
+
+
+@dataclass
+class LinearSettings:
+    """Drive straight at a speed drawn uniformly in ``[min_speed, max_speed]`` m/s per picture."""
+
+    max_speed: float = 0.1
+    min_speed: float = 0.0
+
+
+class Linear(Excitation):
+    """Paper II.B: drive straight, at a new random speed after every picture."""
+
+    def __init__(self, settings: LinearSettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or LinearSettings()
+        self.speed = np.zeros(0)
+        self.speeds: list[np.ndarray] = []
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.speed = np.zeros(self.n)
+        self.speeds = []
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        if step.new_picture:
+            s = self.settings
+            self.speed = self._draw(s.min_speed, s.max_speed, np.arange(self.n))
+            self.speeds.append(self.speed.copy())
+        return self.speed.copy(), np.zeros(self.n)
+
+
+@dataclass
+class RandomSettings:
+    """Random motion (paper section III), all rates in SI units.
+
+    Attributes:
+        speed: range of forward speeds (m/s).
+        turn: largest turn rate (rad/s); rates are uniform in ``[-turn, turn]``.
+        change_after: each of speed and turn rate is redrawn after a time uniform in
+            ``[0, change_after]`` s.
+        bump_turn: after a bump the robot stops and turns in place at a rate uniform in
+            ``[bump_turn / 2, bump_turn]`` (random sign) for ``bump_time`` seconds.
+        bump_time: range of that turn's duration (s).
+    """
+
+    speed: tuple[float, float] = (0.1, 0.5)
+    turn: float = math.radians(20.0)
+    change_after: float = 3.0
+    bump_turn: float = math.radians(40.0)
+    bump_time: tuple[float, float] = (1.0, 2.0)
+
+
+class RandomMotion(Excitation):
+    """Paper II.C: random speeds and turn rates changed at random moments; turn away after a
+    bump. All robots use similar commands (the paper's "worst conditions")."""
+
+    def __init__(self, settings: RandomSettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or RandomSettings()
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        s, everyone = self.settings, np.arange(self.n)
+        self.v = self._draw(*s.speed, everyone)
+        self.w = self._draw(-s.turn, s.turn, everyone)
+        self.v_timer = self._draw(0.0, s.change_after, everyone)
+        self.w_timer = self._draw(0.0, s.change_after, everyone)
+        self.escape = np.zeros(self.n)  # time left turning away from a bump (s)
+        self.escape_rate = np.zeros(self.n)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        s = self.settings
+        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0))
+        if len(bumped):
+            sign = np.where(self._draw(0.0, 1.0, bumped) < 0.5, -1.0, 1.0)
+            self.escape_rate[bumped] = sign * self._draw(s.bump_turn / 2, s.bump_turn, bumped)
+            self.escape[bumped] = self._draw(*s.bump_time, bumped)
+        self.v_timer -= dt
+        self.w_timer -= dt
+        due_v = np.flatnonzero(self.v_timer <= 0.0)
+        if len(due_v):
+            self.v[due_v] = self._draw(*s.speed, due_v)
+            self.v_timer[due_v] = self._draw(0.0, s.change_after, due_v)
+        due_w = np.flatnonzero(self.w_timer <= 0.0)
+        if len(due_w):
+            self.w[due_w] = self._draw(-s.turn, s.turn, due_w)
+            self.w_timer[due_w] = self._draw(0.0, s.change_after, due_w)
+        escaping = self.escape > 0.0
+        self.escape = np.maximum(self.escape - dt, 0.0)
+        v = np.where(escaping, 0.0, self.v)
+        w = np.where(escaping, self.escape_rate, self.w)
+        return v, w
+
+
+EXCITATIONS = {
+    "still": Still,
+    "angular": Angular,
+    "linear": Linear,
+    "motion": RandomMotion,
+    "random": RandomMotion,
+}
+"""Excitations by name. ``random`` and ``motion`` are the same random motion."""

@@ -1,0 +1,81 @@
+"""Pure numpy helpers shared by the localizers: matching, chaining, scoring, deciding.
+
+Every function takes arrays and returns arrays; none reads an environment.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env.geometry import rotate, wrap_angle
+from anonloc_env.neighbours import expand_ranges, pairs_within
+
+__all__ = [
+    "chain_triples",
+    "decide",
+    "match_nearest",
+    "pairs_within",
+    "rotate",
+    "scores_to_belief",
+    "wrap_angle",
+]
+
+
+def match_nearest(first: np.ndarray, second: np.ndarray, max_distance: float) -> np.ndarray:
+    """For each point of ``second`` ``(m, 2)``, the index of the nearest point of ``first``
+    ``(n, 2)`` within ``max_distance``, or -1. Near-linear (spatial hashing)."""
+    i, j, dist = pairs_within(first, second, max_distance)
+    match = np.full(len(second), -1, dtype=np.int64)
+    if len(i):
+        order = np.lexsort((dist, j))  # by second point, nearest first
+        first_of = np.ones(len(order), bool)
+        first_of[1:] = j[order][1:] != j[order][:-1]
+        best = order[first_of]
+        match[j[best]] = i[best]
+    return match
+
+
+def chain_triples(
+    p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, reach01: float, reach12: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All index triples ``(a, b, c)`` with ``|p1[b] - p0[a]| <= reach01`` and
+    ``|p2[c] - p1[b]| <= reach12``: tracks across three pictures, found in near-linear time."""
+    a, b, _ = pairs_within(p0, p1, reach01)
+    b2, c, _ = pairs_within(p1, p2, reach12)
+    if len(a) == 0 or len(b2) == 0:
+        empty = np.zeros(0, np.int64)
+        return empty, empty, empty
+    start = np.searchsorted(b2, b, side="left")
+    stop = np.searchsorted(b2, b, side="right")
+    counts = stop - start
+    second = expand_ranges(start, counts)
+    return np.repeat(a, counts), np.repeat(b, counts), c[second]
+
+
+def scores_to_belief(chi2: np.ndarray) -> np.ndarray:
+    """Rows' beliefs from chi-square scores ``(R, n)`` (inf: impossible): ``exp(-chi2 / 2)``,
+    normalised per robot; all-impossible rows give a uniform belief."""
+    chi2 = np.atleast_2d(np.asarray(chi2, dtype=np.float64))
+    if chi2.shape[1] == 0:
+        return chi2.copy()
+    best = np.min(chi2, axis=1, keepdims=True)
+    finite = np.isfinite(best)
+    weights = np.where(finite, np.exp(-0.5 * (chi2 - np.where(finite, best, 0.0))), 1.0)
+    return weights / weights.sum(axis=1, keepdims=True)
+
+
+def decide(chi2: np.ndarray, threshold: float) -> np.ndarray:
+    """Per robot, the row with the smallest score if it is at most ``threshold``, else -1."""
+    chi2 = np.atleast_2d(np.asarray(chi2, dtype=np.float64))
+    if chi2.shape[1] == 0:
+        return np.full(len(chi2), -1, dtype=np.int64)
+    best = np.argmin(chi2, axis=1)
+    ok = chi2[np.arange(len(chi2)), best] <= threshold
+    return np.where(ok, best, -1)
+
+
+def chi2_quantile_2dof(p: float) -> float:
+    """Quantile of a chi-square with 2 degrees of freedom: ``-2 log(1 - p)``."""
+    return -2.0 * math.log(1.0 - p)

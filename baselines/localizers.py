@@ -1,0 +1,254 @@
+"""Localizers: turn pictures and own motion into "which row is me", for R robots at once.
+
+Each localizer wraps the pure functions of :mod:`baselines.angular`, :mod:`baselines.linear`,
+:mod:`baselines.motion` or the Bayesian :class:`anonloc_env.identify.Identifier`. It is told about
+every picture (with the robots' own motion since the previous one) and keeps, per robot, an
+estimate (a row of the newest picture, or -1 while undecided) and a belief over the rows.
+
+``mode="faithful"`` runs the paper's algorithm as printed (typos aside); ``"corrected"`` (default)
+runs the corrected one, whose decision thresholds come from the noise model (a chi-square test at
+a false-rejection rate of 1e-4).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env.config import EnvConfig
+from anonloc_env.identify import Identifier, Interval, SensorModel
+from baselines import angular, linear, motion
+from baselines.excitations import Angular, Excitation, Linear
+from baselines.geometry import decide, scores_to_belief
+
+MODES = ("corrected", "faithful")
+#: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
+CHI2_THRESHOLD = {1: 15.14, 2: 18.42, 3: 21.11}
+
+
+class Localizer:
+    """Base class. Subclasses implement :meth:`_decide` on the pictures kept so far.
+
+    Args:
+        config: what the robots know of the task (nominal camera, robot and timing specs).
+        n: number of robots R.
+        mode: ``"corrected"`` or ``"faithful"``.
+    """
+
+    #: Pictures needed before a first decision.
+    needs = 2
+
+    def __init__(self, config: EnvConfig, n: int, mode: str = "corrected") -> None:
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {list(MODES)}, got {mode!r}")
+        self.config = config
+        self.n = n
+        self.mode = mode
+        self.model = SensorModel.from_config(config)
+        self.scale = self.model.scale_bounds[1]
+        self.sigma = math.hypot(self.model.pixel_noise, 1e-3)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget all pictures."""
+        self.pictures: list[np.ndarray] = []
+        self.intervals: list[Interval] = []
+        self.durations: list[float] = []
+        self.estimate = np.full(self.n, -1, dtype=np.int64)
+        self.belief = np.zeros((self.n, 0))
+
+    def on_picture(
+        self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
+    ) -> None:
+        """Take in a picture; ``interval`` is the motion since the previous one (None at first),
+        ``duration`` its length (s), ``excitation`` what drove the robots meanwhile."""
+        self.pictures = [*self.pictures[-2:], rows]
+        if interval is not None:
+            self.intervals = [*self.intervals[-1:], interval]
+            self.durations = [*self.durations[-1:], duration]
+        n_rows = len(rows)
+        self.estimate = np.full(self.n, -1, dtype=np.int64)
+        self.belief = np.full((self.n, n_rows), 1.0 / max(n_rows, 1))
+        if len(self.pictures) >= self.needs and len(self.intervals) >= self.needs - 1:
+            self._decide(excitation)
+
+    def _decide(self, excitation: Excitation) -> None:
+        raise NotImplementedError
+
+    def _reach(self, interval: Interval) -> float:
+        """Farthest any robot may move in the image over ``interval`` (image units)."""
+        travel = interval.path + (interval.push if interval.push is not None else 0.0)
+        return float(self.scale * 1.1 * travel.max() + 6.0 * self.sigma + self.scale * 0.05)
+
+    def _set_from_chi2(self, chi2: np.ndarray, dof: int) -> None:
+        self.belief = scores_to_belief(chi2)
+        self.estimate = decide(chi2, CHI2_THRESHOLD[dof])
+
+    def _set_from_deviation(self, deviation: np.ndarray) -> None:
+        """Faithful decision: the smallest deviation wins, whatever its size."""
+        best = np.argmin(deviation, axis=1) if deviation.shape[1] else np.zeros(0, int)
+        found = np.isfinite(deviation[np.arange(self.n), best]) if deviation.shape[1] else []
+        self.estimate = np.where(found, best, -1) if deviation.shape[1] else self.estimate
+        onehot = np.zeros_like(deviation)
+        onehot[np.flatnonzero(self.estimate >= 0), self.estimate[self.estimate >= 0]] = 1.0
+        self.belief = np.where(
+            (self.estimate >= 0)[:, None], onehot, 1.0 / max(deviation.shape[1], 1)
+        )
+
+
+class AngularLocalizer(Localizer):
+    """Paper II.A (needs detected headings)."""
+
+    def __init__(self, config: EnvConfig, n: int, mode: str = "corrected") -> None:
+        if not config.camera.orientation:
+            raise ValueError(
+                "the angular method needs detected headings: camera.orientation is False "
+                "(a blob detector gives none); use 'motion' or 'bayes'"
+            )
+        super().__init__(config, n, mode)
+
+    def _decide(self, excitation: Excitation) -> None:
+        first, second = self.pictures[-2], self.pictures[-1]
+        interval = self.intervals[-1]
+        if self.mode == "faithful":
+            if not isinstance(excitation, Angular):
+                raise ValueError("the faithful angular method needs the angular excitation")
+            rotation = excitation.rate * self.durations[-1]  # r * dt of Algorithm 1
+            self._set_from_deviation(
+                angular.faithful_residuals(first[:, 2], second[:, 2], rotation)
+            )
+            return
+        size = self.config.robot.size
+        res = angular.residuals(first, second, interval.dphi, self.scale * size + 6 * self.sigma)
+        _, var_dphi = interval.variances(self.model.odometry_noise)
+        var = 2 * self.model.orientation_noise**2 + var_dphi[:, None] + 1e-8
+        self._set_from_chi2(res**2 / var, dof=1)
+
+
+class LinearLocalizer(Localizer):
+    """Paper II.B (three pictures, scale-free ratio)."""
+
+    needs = 3
+
+    def _decide(self, excitation: Excitation) -> None:
+        p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
+        if self.mode == "faithful":
+            if not isinstance(excitation, Linear) or len(excitation.speeds) < 2:
+                raise ValueError("the faithful linear method needs the linear excitation")
+            v0, v1 = excitation.speeds[-2], excitation.speeds[-1]  # the two legs just driven
+            t0, t1 = self.durations[-2], self.durations[-1]
+            with np.errstate(divide="ignore"):
+                ratio = v0 * t0 / (v1 * t1)
+            rows, deviation = linear.faithful_search(p0, p1, p2, ratio)
+            dev = np.full((self.n, len(p2)), np.inf)
+            ok = rows >= 0
+            dev[np.flatnonzero(ok), rows[ok]] = deviation[ok]
+            self._set_from_deviation(dev)
+            return
+        first, second = self.intervals[-2], self.intervals[-1]
+        len0, len1 = np.hypot(*first.d.T), np.hypot(*second.d.T)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(len1 > 0, len0 / len1, np.inf)
+        chi2 = linear.residuals(
+            p0, p1, p2, ratio, self.sigma, self._reach(first), self._reach(second)
+        )
+        self._set_from_chi2(chi2, dof=2)
+
+
+class MotionLocalizer(Localizer):
+    """Paper II.C with the scale known (two pictures)."""
+
+    def _decide(self, excitation: Excitation) -> None:
+        first, second = self.pictures[-2], self.pictures[-1]
+        interval = self.intervals[-1]
+        if self.mode == "faithful":
+            dev = motion.faithful_deviation(first[:, :2], second[:, :2], interval.d, self.scale)
+            self._set_from_deviation(dev.min(axis=1))
+            return
+        orientation = self.model.orientation_noise if self.model.orientation else None
+        var_d, _ = interval.variances(self.model.odometry_noise)
+        sigma = math.sqrt(self.sigma**2 + self.scale**2 * float(var_d.max()) / 2)
+        chi2 = motion.residuals(
+            first,
+            second,
+            interval.d,
+            interval.dphi,
+            self.scale,
+            sigma,
+            self._reach(interval),
+            None if orientation is None else max(orientation, 1e-4),
+        )
+        self._set_from_chi2(chi2, dof=3 if orientation is not None else 1)
+
+
+class Motion3Localizer(Localizer):
+    """Paper eq. 24: the scale unknown, three pictures."""
+
+    needs = 3
+
+    def _decide(self, excitation: Excitation) -> None:
+        p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
+        first, second = self.intervals[-2], self.intervals[-1]
+        if self.mode == "faithful":
+            dev = motion.faithful_scale_free_deviation(p0, p1, p2, first.d, first.dphi, second.d)
+            self._set_from_deviation(dev)
+            return
+        chi2 = motion.scale_free_residuals(
+            p0,
+            p1,
+            p2,
+            first.d,
+            first.dphi,
+            second.d,
+            self.sigma,
+            2 * self._reach(first),
+            2 * self._reach(second),
+        )
+        self._set_from_chi2(chi2, dof=2)
+
+
+class BayesLocalizer(Localizer):
+    """The Bayesian identifier (:mod:`anonloc_env.identify`) with a decision threshold.
+
+    Args:
+        config, n: as for every localizer.
+        mode: only ``"corrected"``.
+        threshold: belief above which a robot decides (default 0.99).
+        scale_known: False estimates the camera scale per hypothesis.
+    """
+
+    needs = 1
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        n: int,
+        mode: str = "corrected",
+        threshold: float = 0.99,
+        scale_known: bool = True,
+    ) -> None:
+        if mode != "corrected":
+            raise ValueError("the Bayesian identifier has no faithful mode; use mode='corrected'")
+        if not 0.5 < threshold < 1.0:
+            raise ValueError(f"threshold must be in (0.5, 1), got {threshold}")
+        self.threshold = threshold
+        self.identifier = Identifier(SensorModel.from_config(config, scale_known=scale_known), n)
+        super().__init__(config, n, mode)
+
+    def reset(self) -> None:
+        super().reset()
+        self.identifier.reset()
+
+    def on_picture(
+        self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
+    ) -> None:
+        self.identifier.update(rows, interval)
+        self.belief = self.identifier.belief()
+        n_rows = self.belief.shape[1]
+        if n_rows == 0:
+            self.estimate = np.full(self.n, -1, dtype=np.int64)
+            return
+        best = self.belief.argmax(axis=1)
+        sure = self.belief[np.arange(self.n), best] >= self.threshold
+        self.estimate = np.where(sure, best, -1)

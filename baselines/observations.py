@@ -1,0 +1,117 @@
+"""Reading observations: the newest picture, and each robot's own motion between pictures.
+
+A localizer sees, at every step, what its robot observes and nothing else. :class:`MotionLog`
+turns the per-step own odometry into what the localizers need at each picture: an
+:class:`anonloc_env.identify.Interval` (displacement, heading change, distance rolled, the squares
+of the per-step increments for the noise model, and how far contacts may have pushed it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from anonloc_env.identify import Interval
+
+
+@dataclass(frozen=True)
+class Step:
+    """What a team of R robots (one env) observed at one step.
+
+    Attributes:
+        rows: ``(n, 3)`` rows ``(u, v, theta)`` of the newest picture (padding removed).
+        new_picture: whether that picture arrived at this step.
+        odometry: ``(R, 3)`` own ``(dx, dy, dphi)`` since the newest picture.
+        bumper: ``(R,)`` contact during this step.
+        between: ``(R, 3)`` own motion from the previous picture to the newest.
+        interval: time between the previous picture and the newest (s).
+    """
+
+    rows: np.ndarray
+    new_picture: bool
+    odometry: np.ndarray
+    bumper: np.ndarray
+    between: np.ndarray
+    interval: float
+
+
+def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
+    """Gather one step of R robots' observations (R >= 1, all of the same env and picture).
+
+    Raises:
+        ValueError: the observations do not show the same picture (they come from different
+            envs), or a key is missing.
+    """
+    first = observations[0]
+    try:
+        detections = np.asarray(first["detections"])
+        mask = np.asarray(first["mask"]) > 0.5
+        rows = detections[mask].astype(np.float64)
+        for other in observations[1:]:
+            if other["detections"] is not first["detections"] and not np.array_equal(
+                other["detections"], first["detections"]
+            ):
+                raise ValueError(
+                    "a team's robots must share one env: their observations show different pictures"
+                )
+        odometry = np.array([o["odometry"] for o in observations], dtype=np.float64)
+        bumper = np.array([o["bumper"][0] for o in observations], dtype=np.float64)
+        between = np.array([o["odometry_between"] for o in observations], dtype=np.float64)
+        new_picture = bool(first["new_picture"][0] > 0.5)
+        interval = float(first["interval"][0])
+    except KeyError as missing:
+        raise ValueError(f"observation lacks the key {missing.args[0]!r}") from None
+    return Step(rows, new_picture, odometry, bumper > 0.5, between, interval)
+
+
+class MotionLog:
+    """Accumulates each robot's own motion between pictures from its per-step odometry.
+
+    Args:
+        n: number of robots R.
+        push_per_step: how far a contact may shove a robot in one control step without its wheels
+            noticing (m), e.g. ``v_max * dt``.
+    """
+
+    def __init__(self, n: int, push_per_step: float) -> None:
+        self.n = n
+        self.push_per_step = push_per_step
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the current interval."""
+        self.last = np.zeros((self.n, 3))
+        self.path = np.zeros(self.n)
+        self.sum_ds2 = np.zeros(self.n)
+        self.sum_dth2 = np.zeros(self.n)
+        self.bumps = np.zeros(self.n)
+
+    def _add(self, increment: np.ndarray, bumper: np.ndarray) -> None:
+        ds = np.hypot(increment[:, 0], increment[:, 1])
+        self.path += ds
+        self.sum_ds2 += ds**2
+        self.sum_dth2 += increment[:, 2] ** 2
+        self.bumps += bumper
+
+    def observe(self, step: Step) -> Interval | None:
+        """Take in one step; return the interval that ended if a picture arrived."""
+        if not step.new_picture:
+            self._add(step.odometry - self.last, step.bumper)
+            self.last = step.odometry
+            return None
+        # The last step before the picture is seen only through the whole interval's motion.
+        self._add(step.between - self.last, step.bumper)
+        interval = Interval(
+            d=step.between[:, :2].copy(),
+            dphi=step.between[:, 2].copy(),
+            path=self.path.copy(),
+            sum_ds2=self.sum_ds2.copy(),
+            sum_dth2=self.sum_dth2.copy(),
+            push=self.bumps * self.push_per_step,
+        )
+        self.reset()
+        self.last = step.odometry
+        return interval

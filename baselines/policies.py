@@ -1,0 +1,180 @@
+"""Policies: a localizer coupled with the excitation its method prescribes.
+
+One protocol serves hand-written and learned policies alike (:class:`Policy`): SB3's
+``predict(observation, state=None, episode_start=None, deterministic=False)``, plus ``reset``,
+``estimate`` and ``belief``. A :class:`Team` runs R robots of one env together (every robot still
+sees only its own observation); a single-robot :class:`BaselinePolicy` is a team of one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from anonloc_env.actions import to_actions
+from anonloc_env.config import EnvConfig
+from baselines.excitations import Excitation
+from baselines.localizers import Localizer
+from baselines.observations import MotionLog, read_step
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """What every policy offers (SB3's ``predict`` plus localization)."""
+
+    def predict(
+        self,
+        observation: Mapping[str, Any],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        """The action for ``observation`` and the (unused) recurrent state."""
+        ...
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start an episode; ``seed`` seeds the policy's own random choices."""
+        ...
+
+    def estimate(self) -> int | None:
+        """The row of the newest picture seen through ``predict`` believed to be this robot, or
+        None while undecided."""
+        ...
+
+    def belief(self) -> np.ndarray:
+        """A probability for each row of that picture."""
+        ...
+
+
+class Team:
+    """R robots of one env, each localizing itself, evaluated together.
+
+    Args:
+        config: what the robots know of the task.
+        localizer: a localizer for R robots.
+        excitation: an excitation (it is reset with one generator per robot).
+        listeners: more localizers fed the same pictures and motion (e.g. the faithful and
+            corrected versions of one method, scored on the very same episodes).
+    """
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        localizer: Localizer,
+        excitation: Excitation,
+        listeners: Mapping[str, Localizer] | None = None,
+    ) -> None:
+        self.config = config
+        self.localizer = localizer
+        self.excitation = excitation
+        self.listeners = dict(listeners or {})
+        for name, listener in self.listeners.items():
+            if listener.n != localizer.n:
+                raise ValueError(f"listener {name!r} has {listener.n} robots, not {localizer.n}")
+        self.n = localizer.n
+        self.log = MotionLog(self.n, config.robot.v_max * config.dt)
+        self.reset([None] * self.n)
+
+    def reset(self, seeds: Sequence[int | np.random.SeedSequence | None]) -> None:
+        """Start an episode; robot i's random choices come from ``seeds[i]``."""
+        if len(seeds) != self.n:
+            raise ValueError(f"seeds must have one entry per robot ({self.n}), got {len(seeds)}")
+        self.localizer.reset()
+        for listener in self.listeners.values():
+            listener.reset()
+        self.excitation.reset([np.random.default_rng(s) for s in seeds])
+        self.log.reset()
+        self.pictures_seen = 0
+
+    def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
+        """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
+        step = read_step(observations)
+        interval = self.log.observe(step)
+        if step.new_picture:
+            first = self.pictures_seen == 0
+            for localizer in (self.localizer, *self.listeners.values()):
+                localizer.on_picture(
+                    step.rows, None if first else interval, step.interval, self.excitation
+                )
+            self.pictures_seen += 1
+        if hasattr(self.excitation, "observations"):  # a policy as excitation needs them
+            self.excitation.observations = list(observations)
+        v, w = self.excitation.commands(step, self.config.dt)
+        return to_actions(v, w, self.config.robot)
+
+    def _pick(self, listener: str | None) -> Localizer:
+        if listener is None:
+            return self.localizer
+        if listener not in self.listeners:
+            raise ValueError(f"unknown listener {listener!r}; this team has {list(self.listeners)}")
+        return self.listeners[listener]
+
+    def estimates(self, listener: str | None = None) -> np.ndarray:
+        """``(R,)`` row of the newest picture each robot believes is itself, -1 if undecided
+        (by the team's own localizer, or by the named listener)."""
+        return self._pick(listener).estimate
+
+    def beliefs(self, listener: str | None = None) -> np.ndarray:
+        """``(R, n)`` beliefs over the rows of the newest picture."""
+        return self._pick(listener).belief
+
+
+class BaselinePolicy:
+    """One robot's policy (a :class:`Team` of one) speaking the :class:`Policy` protocol.
+
+    ``predict`` also takes a batch of observations (each key with a leading batch axis, as from
+    an SB3 ``VecEnv``): each batch entry is then a separate robot, possibly in its own env.
+
+    Args:
+        name: the policy's name (for display).
+        build: makes a team of one robot.
+    """
+
+    def __init__(self, name: str, build: Callable[[], Team]) -> None:
+        self.name = name
+        self._build = build
+        self._teams: list[Team] = [build()]
+        self._seed: int | None = None
+
+    def reset(self, seed: int | None = None) -> None:
+        self._seed = seed
+        seeds = np.random.SeedSequence(seed).spawn(len(self._teams))
+        for team, s in zip(self._teams, seeds, strict=True):
+            team.reset([s])
+
+    def predict(
+        self,
+        observation: Mapping[str, Any],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        batch = np.asarray(observation["detections"]).ndim == 3
+        if not batch:
+            if episode_start is not None and bool(np.any(episode_start)):
+                self.reset(self._seed)
+            return self._teams[0].act([observation])[0], state
+        size = len(observation["detections"])
+        while len(self._teams) < size:
+            self._teams.append(self._build())
+            self._teams[-1].reset([np.random.SeedSequence(self._seed).spawn(size)[-1]])
+        starts = np.zeros(size, bool) if episode_start is None else np.asarray(episode_start)
+        actions = np.empty((size, 2), np.float32)
+        for i in range(size):
+            if starts[i]:
+                self._teams[i].reset([None])
+            single = {key: value[i] for key, value in observation.items()}
+            actions[i] = self._teams[i].act([single])[0]
+        return actions, state
+
+    def estimate(self) -> int | None:
+        row = int(self._teams[0].estimates()[0])
+        return None if row < 0 else row
+
+    def belief(self) -> np.ndarray:
+        return self._teams[0].beliefs()[0]
+
+    def __repr__(self) -> str:
+        return f"BaselinePolicy({self.name!r})"
