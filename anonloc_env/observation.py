@@ -8,24 +8,24 @@ caller stays valid.
 
 Keys (D = max detections, K = history length):
 
-==================== ========== ==========================================================
-key                  shape      meaning
-==================== ========== ==========================================================
-detections           (D, 3)     newest picture's rows (u, v, theta), zero-padded, shuffled
-mask                 (D,)       1 where ``detections`` holds a row, else 0
-new_picture          (1,)       1 if the newest picture arrived at this step, else 0
-since_picture        (1,)       time since the newest picture (s); since reset if none yet
-odometry             (3,)       own (dx, dy, dphi) since the newest picture, in the robot's
-                                frame at that picture (m, m, rad)
-bumper               (1,)       1 if a contact pushed or blocked the robot during this step
-odometry_between     (3,)       own (dx, dy, dphi) from the previous picture to the newest,
-                                in the robot's frame at the previous picture (0 before)
-interval             (1,)       time between the previous picture and the newest (s)
-history_detections   (K, D, 3)  the K pictures before the newest, most recent first
-history_mask         (K, D)     their masks (all 0 for pictures not taken yet)
-history_odometry     (K, 3)     own motion from history picture k to the next newer one
-history_interval     (K,)       time from history picture k to the next newer one (s)
-==================== ========== ==========================================================
+| key | shape | meaning |
+|---|---|---|
+| `detections` | `(D, 3)` | newest picture's rows `(u, v, theta)`, zero-padded, shuffled |
+| `mask` | `(D,)` | 1 where `detections` holds a row, else 0 |
+| `new_picture` | `(1,)` | 1 if the newest picture arrived at this step, else 0 |
+| `since_picture` | `(1,)` | time since the newest picture (s); since reset if none yet |
+| `odometry` | `(3,)` | own motion `(dx, dy, dphi)` since the newest picture (m, m, rad) |
+| `bumper` | `(1,)` | 1 if a contact pushed or blocked the robot during this step |
+| `odometry_between` | `(3,)` | own motion from the previous picture to the newest (0 before) |
+| `interval` | `(1,)` | time between the previous picture and the newest (s) |
+| `history_detections` | `(K, D, 3)` | the K pictures before the newest, most recent first |
+| `history_mask` | `(K, D)` | their masks (all 0 for pictures not taken yet) |
+| `history_odometry` | `(K, 3)` | own motion from history picture k to the next newer one |
+| `history_interval` | `(K,)` | time from history picture k to the next newer one (s) |
+
+Odometry is in the robot's own frame at the start of its interval: `odometry` in the frame at the
+newest picture, `odometry_between` in the frame at the previous picture, `history_odometry[k]` in
+the frame at history picture k.
 """
 
 from __future__ import annotations
