@@ -111,8 +111,24 @@ def motion_deviation(
     c, s = np.cos(heading), np.sin(heading)
     moved = np.column_stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]])
     delta = moved * _scales(rng, n)[:, None] + rng.normal(0.0, pixel_noise * math.sqrt(2), (n, 2))
+    disagreement = xy_disagreement(delta, d, SCALE_USED)
+    dev = np.degrees(disagreement).reshape(samples, runs)
+    return float(np.median(np.nanmean(dev, axis=1))), float(np.median(np.nanstd(dev, axis=1)))
+
+
+def xy_disagreement(delta: np.ndarray, d: np.ndarray, scale: float) -> np.ndarray:
+    """The paper's "angle between x and y axes" (rad): how far apart the headings solved from the
+    x row (``+-arccos(C / rho)``) and the y row (``arcsin(D / rho)`` or ``pi - arcsin(D / rho)``)
+    of eq. 14 are, best branches, wrapped; nan where a row has no solution.
+
+    Args:
+        delta: ``(n, 2)`` image displacements between the two pictures.
+        d: ``(n, 2)`` own displacements in the robot frame (m).
+        scale: the scale the robot assumes (image units per m).
+    """
     rho = np.hypot(d[:, 0], d[:, 1])
-    cx, dy = delta[:, 0] / SCALE_USED / rho, delta[:, 1] / SCALE_USED / rho
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx, dy = delta[:, 0] / scale / rho, delta[:, 1] / scale / rho
     ok = (np.abs(cx) <= 1.0) & (np.abs(dy) <= 1.0)
     ax, ay = np.arccos(np.clip(cx, -1, 1)), np.arcsin(np.clip(dy, -1, 1))
     gaps = [
@@ -120,9 +136,7 @@ def motion_deviation(
         for fx in (ax, -ax)
         for fy in (ay, math.pi - ay)
     ]
-    dev = np.degrees(np.min(gaps, axis=0)).reshape(samples, runs)
-    dev = np.where(ok.reshape(samples, runs), dev, np.nan)
-    return float(np.median(np.nanmean(dev, axis=1))), float(np.median(np.nanstd(dev, axis=1)))
+    return np.where(ok, np.min(gaps, axis=0), np.nan)
 
 
 def solve_noise(

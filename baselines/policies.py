@@ -15,6 +15,7 @@ import numpy as np
 
 from anonloc_env.actions import to_actions
 from anonloc_env.config import EnvConfig
+from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer
 from baselines.observations import MotionLog, read_step
@@ -87,6 +88,8 @@ class Team:
         self.excitation.reset([np.random.default_rng(s) for s in seeds])
         self.log.reset()
         self.pictures_seen = 0
+        self.intervals: list[Interval] = []
+        """Each interval between pictures seen so far (own motion, as the robots measured it)."""
 
     def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
         """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
@@ -94,6 +97,8 @@ class Team:
         interval = self.log.observe(step)
         if step.new_picture:
             first = self.pictures_seen == 0
+            if not first and interval is not None:
+                self.intervals.append(interval)
             for localizer in (self.localizer, *self.listeners.values()):
                 localizer.on_picture(
                     step.rows, None if first else interval, step.interval, self.excitation

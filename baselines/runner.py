@@ -6,12 +6,13 @@ from ``infos`` only to score; the policies never see ``infos``.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from anonloc_env.actions import to_commands
 from anonloc_env.env import AnonLocEnv
+from anonloc_env.odometry import Interval
 from anonloc_env.rewards import energy
 from baselines.policies import Team
 
@@ -64,11 +65,23 @@ class Decision:
 
 @dataclass
 class EpisodeResult:
-    """Everything one episode produced."""
+    """Everything one episode produced.
+
+    Attributes:
+        seed: the env seed.
+        n_robots: N.
+        records: one per robot, picture and localizer.
+        pictures: the scored pictures' rows ``(n, 3)``.
+        true_rows: ``(N,)`` true row of each robot in each scored picture (ground truth).
+        intervals: the robots' own motion between consecutive scored pictures.
+    """
 
     seed: int
     n_robots: int
     records: list[PictureRecord]
+    pictures: list[np.ndarray] = field(default_factory=list)
+    true_rows: list[np.ndarray] = field(default_factory=list)
+    intervals: list[Interval] = field(default_factory=list)
 
     def decisions(self, localizer: str = "") -> list[Decision]:
         """Each robot's first decision (by the team's localizer, or the named listener)."""
@@ -120,12 +133,17 @@ def run_episode(
     agents = env.possible_agents
     spent = np.zeros(n)
     records: list[PictureRecord] = []
+    pictures: list[np.ndarray] = []
+    true_rows: list[np.ndarray] = []
     scored = 0
     while True:
         actions = team.act([observations[a] for a in agents])
         if observations[agents[0]]["new_picture"][0] > 0.5:
             for name in ("", *team.listeners):
                 records.extend(_score(env, team, name, infos, spent, agents))
+            assert env.picture is not None
+            pictures.append(env.picture.detections)
+            true_rows.append(np.array([infos[a]["true_index"] for a in agents]))
             scored += 1
             done = max_pictures is not None and scored >= max_pictures
             if done or (stop_when_decided and _all_decided(team)):
@@ -135,7 +153,14 @@ def run_episode(
         v, w = to_commands(actions, env.config.robot)
         spent += energy(env.config, v, w)
         observations, _, _, _, infos = env.step(dict(zip(agents, actions, strict=True)))
-    return EpisodeResult(seed=seed, n_robots=n, records=records)
+    return EpisodeResult(
+        seed=seed,
+        n_robots=n,
+        records=records,
+        pictures=pictures,
+        true_rows=true_rows,
+        intervals=list(team.intervals),
+    )
 
 
 def _all_decided(team: Team) -> bool:
