@@ -27,7 +27,7 @@ from anonloc_env.config import (
 )
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import PRESETS, make_config, preset_names
-from anonloc_env.rewards import EnergyCost, RewardFunction, StepContext
+from anonloc_env.rewards import EnergyCost, InformationGain, RewardFunction, StepContext
 
 __version__ = "0.1.0"
 ENV_ID = "anonloc/AnonLoc-v0"
@@ -41,6 +41,7 @@ __all__ = [
     "DetectionSource",
     "EnergyCost",
     "EnvConfig",
+    "InformationGain",
     "ObservationConfig",
     "Picture",
     "RewardConfig",
@@ -72,7 +73,8 @@ def parallel_env(
         preset: ``"default"`` (when None), ``"paper-angular"``, ``"paper-linear"`` or
             ``"paper-motion"``.
         render_mode: None, ``"human"`` or ``"rgb_array"``.
-        reward_fn: a reward function (see :mod:`anonloc_env.rewards`); default :class:`EnergyCost`.
+        reward_fn: a reward function (see :mod:`anonloc_env.rewards`); default
+            :class:`InformationGain`.
         detector: replaces the built-in geometric camera (see :class:`DetectionSource`).
         **overrides: ``n_robots``, ``arena_size``, ``dt``, ``picture_interval``, ``max_cycles``,
             and the sections ``robot``, ``camera``, ``schedule``, ``observation``, ``reward`` as

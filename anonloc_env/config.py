@@ -186,21 +186,25 @@ class ObservationConfig:
 
 @dataclass(frozen=True)
 class RewardConfig:
-    """Weights of the built-in reward.
+    """Weights of the built-in rewards (see :mod:`anonloc_env.rewards`).
 
     The energy a robot spends in a control step of length ``dt`` is
     ``dt * (|v| + turn_cost * |w|)`` (m): the distance its wheels roll.
 
     Attributes:
+        information_weight: reward per nat of information gained about the robot's identity,
+            in [0, inf).
         energy_weight: reward lost per metre of wheel travel (1/m), in [0, inf).
         turn_cost: wheel travel per radian turned in place (m/rad), in [0, inf); ``None`` uses
             half the robot's size (a differential drive with wheels at its sides).
     """
 
+    information_weight: float = 1.0
     energy_weight: float = 0.01
     turn_cost: float | None = None
 
     def __post_init__(self) -> None:
+        check_number("reward.information_weight", self.information_weight, 0.0)
         check_number("reward.energy_weight", self.energy_weight, 0.0)
         if self.turn_cost is not None:
             check_number("reward.turn_cost", self.turn_cost, 0.0)

@@ -16,7 +16,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space
 from anonloc_env.odometry import Interval, Odometry
-from anonloc_env.rewards import EnergyCost, RewardFunction, StepContext
+from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
 from anonloc_env.schedule import PictureSchedule
 from anonloc_env.world import World, check_poses, random_poses
 
@@ -60,8 +60,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     between them are added. Observations never contain ground truth.
 
     ## Rewards
-    Pluggable (`reward_fn`, see `anonloc_env.rewards`). The default, `EnergyCost`, gives
-    `-energy_weight * dt * (|v| + turn_cost * |w|)` per step.
+    Pluggable (`reward_fn`, see `anonloc_env.rewards`). The default, `InformationGain`, gives at
+    each new picture the information gained about the robot's identity,
+    `log P_k(true row) - log P_(k-1)(true row)` in nats under the Bayesian identifier with the true
+    noise model, and at every step `-energy_weight * dt * (|v| + turn_cost * |w|)`.
+    `EnergyCost` is the energy term alone (cheaper).
 
     ## Starting State
     Random non-overlapping poses with uniform headings, drawn from the generator seeded by
@@ -113,7 +116,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         if reward_fn is not None and not isinstance(reward_fn, RewardFunction):
             raise TypeError("reward_fn must have reset(config, rng) and __call__(context) methods")
         self.render_mode = render_mode
-        self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else EnergyCost()
+        self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
         self.detector: DetectionSource = detector if detector is not None else self.camera
         self.max_cycles = self.config.max_cycles
@@ -143,13 +146,17 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self._info_templates: list[dict[str, Any]] = []
         self._rng: np.random.Generator | None = None
         self.world: World | None = None
-        self.odometry = Odometry(n, self.config.robot.odometry_noise)
+        self.odometry = self._new_odometry()
         self.picture: Picture | None = None
         self.pictures_taken = 0
         self.steps = 0
         self.guesses: dict[str, int | None] = {}
         """Row each robot currently believes is itself; drawn by ``render`` if set (optional)."""
         self._renderer: Any = None
+
+    def _new_odometry(self) -> Odometry:
+        robot = self.config.robot
+        return Odometry(self.config.n_robots, robot.odometry_noise, robot.v_max, self.config.dt)
 
     # -- PettingZoo API -------------------------------------------------------------------------
 
@@ -196,10 +203,9 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         else:
             poses = random_poses(self.config, rng)
         self.world = World(self.config, poses)
-        self.odometry = Odometry(self.config.n_robots, self.config.robot.odometry_noise)
+        self.odometry = self._new_odometry()
         self.schedule = PictureSchedule(self.config.schedule, self.config.dt, rng)
         self.builder = ObservationBuilder(self.config, self.camera.capacity)
-        self.reward_fn.reset(self.config, rng)
         self.agents = self.possible_agents[:]
         self.steps = 0
         self.pictures_taken = 0
@@ -207,6 +213,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.guesses = {}
         if self._maybe_take_picture(0.0) is None:
             self._update_info_templates()
+        self.reward_fn.reset(self.config, rng, self.picture)
         n = self.config.n_robots
         observations = self.builder.build(
             self.agents,
@@ -237,7 +244,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         stacked = stack_actions(actions, self.agents)
         v, w = to_commands(stacked, self.config.robot)
         motion = world.step(v, w)
-        self.odometry.integrate(motion, self.rng)
+        self.odometry.integrate(motion, self.rng, v)
         self.steps += 1
         time = self.steps * self.config.dt
         between = self._maybe_take_picture(time)
@@ -273,7 +280,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         assert self.world is not None
         self.picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
         self.pictures_taken += 1
-        between = self.odometry.mark_picture(self.config.robot.v_max * self.config.dt)
+        between = self.odometry.mark_picture()
         self.builder.add_picture(self.picture, between)
         self._update_info_templates()
         return between

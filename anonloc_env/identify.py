@@ -123,6 +123,12 @@ class SensorModel:
         return self.scale_range
 
 
+def _push_isotropic(interval: Interval) -> np.ndarray:
+    """``(R,)`` variance per component (m^2) of the unseen contact pushes, spread evenly."""
+    cov = interval.push_covariance()
+    return 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
+
+
 def log_i0e(x: np.ndarray) -> np.ndarray:
     """``log(I0(x) exp(-x))`` for ``x >= 0`` (Abramowitz and Stegun 9.8.1-2, error < 2e-7)."""
     x = np.asarray(x, dtype=np.float64)
@@ -341,8 +347,12 @@ class Identifier:
         model = self.model
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
+        push_iso = _push_isotropic(interval)[live]
         sigma = np.sqrt(
-            2 * pix_var + s_high**2 * var_d[live] + (model.scale_spread * s_high * rho0) ** 2
+            s_high**2 * push_iso
+            + 2 * pix_var
+            + s_high**2 * var_d[live]
+            + (model.scale_spread * s_high * rho0) ** 2
         )
         lo = s_low * rho0 - GATE_SIGMAS * sigma
         hi = s_high * rho0 + GATE_SIGMAS * sigma
@@ -395,7 +405,9 @@ class Identifier:
             slot=slot,
             row=np.full(len(k), -1),
             pos=tracks.pos[k] + moved,
-            pos_var=tracks.pos_var[k] + s**2 * var_d[slot] + (s * rho) ** 2 * tracks.p_tt[k],
+            pos_var=tracks.pos_var[k]
+            + s**2 * (var_d[slot] + _push_isotropic(interval)[slot])
+            + (s * rho) ** 2 * tracks.p_tt[k],
             theta=wrap_angle(tracks.theta[k] + interval.dphi[slot]),
             p_tt=tracks.p_tt[k] + var_dphi[slot],
             log_s=tracks.log_s[k],
@@ -433,9 +445,13 @@ class Identifier:
         scale_known = np.isfinite(parent.log_s)
         s_low, s_high = model.scale_bounds
         s_now = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
+        push_cov = interval.push_covariance()[slot]
+        push_iso = 0.5 * (push_cov[:, 0, 0] + push_cov[:, 1, 1])
         base_var = (
             pix_var + parent.pos_var + s_now**2 * var_d + (model.scale_spread * s_now * rho0) ** 2
         )
+
+        iso_var = base_var + s_now**2 * push_iso  # contacts, spread evenly (no heading yet)
 
         loglik = np.full(n_child, -np.inf)
         theta = np.full(n_child, np.nan)
@@ -445,23 +461,23 @@ class Identifier:
         p_ss = parent.p_ss.copy()
         ang_delta = np.arctan2(delta[:, 1], delta[:, 0])
         ang_d = np.arctan2(d[:, 1], d[:, 0])
-        still = s_high * rho0 < 2.0 * np.sqrt(base_var)  # too little motion to learn from
+        still = s_high * rho0 < 2.0 * np.sqrt(iso_var)  # too little motion to learn from
 
         # A. heading unknown, scale known: the ring.
         a = ~heading_known & scale_known
-        loglik[a] = ring_loglik(r[a], s_now[a] * rho0[a], base_var[a])
+        loglik[a] = ring_loglik(r[a], s_now[a] * rho0[a], iso_var[a])
         learn = a & ~still & (r > 0)
         theta[learn] = ang_delta[learn] - ang_d[learn] + dphi[learn]
-        p_tt[learn] = base_var[learn] / np.maximum(r[learn], 1e-12) ** 2 + var_dphi[learn]
+        p_tt[learn] = iso_var[learn] / np.maximum(r[learn], 1e-12) ** 2 + var_dphi[learn]
 
         # C. heading and scale unknown: any length in the scale range, log-uniform scale.
         c = ~heading_known & ~scale_known
-        self._scale_free(c, still, r, rho0, base_var, loglik, s_low, s_high)
+        self._scale_free(c, still, r, rho0, iso_var, loglik, s_low, s_high)
         learn_c = c & ~still & (r > 0)
         theta[learn_c] = ang_delta[learn_c] - ang_d[learn_c] + dphi[learn_c]
-        p_tt[learn_c] = base_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2 + var_dphi[learn_c]
+        p_tt[learn_c] = iso_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2 + var_dphi[learn_c]
         log_s[learn_c] = np.log(r[learn_c] / rho0[learn_c])
-        p_ss[learn_c] = base_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2
+        p_ss[learn_c] = iso_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2
         p_ts[learn_c] = 0.0
 
         # D. heading known, scale unknown: the direction is tested, the length sets the scale.
@@ -472,7 +488,7 @@ class Identifier:
                 still,
                 r,
                 rho0,
-                base_var,
+                iso_var,
                 ang_delta,
                 ang_d,
                 parent,
@@ -497,6 +513,7 @@ class Identifier:
                 d,
                 parent,
                 base_var,
+                push_cov * (s_now**2)[:, None, None],
                 dphi,
                 var_dphi,
                 loglik,
@@ -598,6 +615,7 @@ class Identifier:
         d: np.ndarray,
         parent: _Tracks,
         base_var: np.ndarray,
+        push_cov: np.ndarray,
         dphi: np.ndarray,
         var_dphi: np.ndarray,
         loglik: np.ndarray,
@@ -608,6 +626,12 @@ class Identifier:
         p_ss: np.ndarray,
     ) -> None:
         k = np.flatnonzero(mask)
+        # Unseen pushes (robot frame) turned into the image by the heading: R C R^T.
+        c, sn = np.cos(parent.theta[k]), np.sin(parent.theta[k])
+        cxx, cxy, cyy = push_cov[k, 0, 0], push_cov[k, 0, 1], push_cov[k, 1, 1]
+        q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
+        q12 = c * sn * (cxx - cyy) + (c * c - sn * sn) * cxy
+        q22 = sn * sn * cxx + 2 * c * sn * cxy + c * c * cyy
         th, ls = parent.theta[k], parent.log_s[k]
         ptt, pts, pss = parent.p_tt[k], parent.p_ts[k], parent.p_ss[k]
         s = np.exp(ls)
@@ -618,9 +642,9 @@ class Identifier:
         # S = base I + H P H^T with H = [h_t h_s] (2x2), P = [[ptt, pts], [pts, pss]].
         hp_t = h_t * ptt[:, None] + h_s * pts[:, None]  # H P first column
         hp_s = h_t * pts[:, None] + h_s * pss[:, None]  # H P second column
-        s11 = base_var[k] + hp_t[:, 0] * h_t[:, 0] + hp_s[:, 0] * h_s[:, 0]
-        s12 = hp_t[:, 0] * h_t[:, 1] + hp_s[:, 0] * h_s[:, 1]
-        s22 = base_var[k] + hp_t[:, 1] * h_t[:, 1] + hp_s[:, 1] * h_s[:, 1]
+        s11 = base_var[k] + q11 + hp_t[:, 0] * h_t[:, 0] + hp_s[:, 0] * h_s[:, 0]
+        s12 = q12 + hp_t[:, 0] * h_t[:, 1] + hp_s[:, 0] * h_s[:, 1]
+        s22 = base_var[k] + q22 + hp_t[:, 1] * h_t[:, 1] + hp_s[:, 1] * h_s[:, 1]
         det = s11 * s22 - s12**2
         i11, i12, i22 = s22 / det, -s12 / det, s11 / det
         maha = e[:, 0] ** 2 * i11 + 2 * e[:, 0] * e[:, 1] * i12 + e[:, 1] ** 2 * i22

@@ -26,8 +26,11 @@ class Interval:
         path: ``(R,)`` distance rolled, sum of ``|ds|`` (m).
         sum_ds2: ``(R,)`` sum over control steps of the squared distance (m^2).
         sum_dth2: ``(R,)`` sum over control steps of the squared turn (rad^2).
-        push: ``(R,)`` how far contacts may have moved the robot unseen by its wheels (m): the
-            distance it could drive during the control steps its bumper fired (0 if none).
+        push: ``(R,)`` how far contacts may have moved the robot unseen by its wheels (m), the sum
+            of a bound per control step in contact (see :func:`push_bound`); None: no contact.
+        push_sum: ``(R, 2)`` those bounds times the robot's lateral direction at each contact,
+            summed, in its frame at the first picture (wheels see forward motion, so what a
+            contact adds unseen is sideways).
     """
 
     d: np.ndarray
@@ -36,6 +39,7 @@ class Interval:
     sum_ds2: np.ndarray
     sum_dth2: np.ndarray
     push: np.ndarray | None = None
+    push_sum: np.ndarray | None = None
 
     @classmethod
     def exact(cls, d: np.ndarray, dphi: np.ndarray) -> Interval:
@@ -49,14 +53,42 @@ class Interval:
 
         Per-step multiplicative noise ``noise`` on distance and turn: the distance errors add
         ``noise^2 sum ds^2``; heading errors accumulated along the path swing the displacement by
-        about ``path^2 noise^2 sum dth^2 / 3``; split evenly over the two components. A push of
-        up to ``push`` metres adds the variance of a uniform offset, ``push^2 / 3``.
+        about ``path^2 noise^2 sum dth^2 / 3``; split evenly over the two components. Contacts are
+        in :meth:`push_covariance`.
         """
         var_dphi = noise**2 * self.sum_dth2
         var_d = noise**2 * (self.sum_ds2 + self.path**2 * self.sum_dth2 / 3.0) / 2.0
-        if self.push is not None:
-            var_d = var_d + self.push**2 / 3.0
         return var_d, var_dphi
+
+    def push_covariance(self) -> np.ndarray:
+        """``(R, 2, 2)`` covariance (m^2, robot frame at the first picture) of what contacts may
+        have moved the robot unseen: ``S S^T / 3`` along the summed lateral direction ``S``
+        (a slide along a wall adds up in one direction), plus ``(P^2 - |S|^2) / 6`` in every
+        direction for pushes that point different ways (``P`` = :attr:`push`)."""
+        n = len(self.d)
+        if self.push is None or self.push_sum is None:
+            return np.zeros((n, 2, 2))
+        s = self.push_sum
+        spread = np.maximum(self.push**2 - (s**2).sum(axis=1), 0.0) / 6.0
+        return s[:, :, None] * s[:, None, :] / 3.0 + spread[:, None, None] * np.eye(2)
+
+    @property
+    def reach(self) -> np.ndarray:
+        """``(R,)`` farthest the robot may be from where it started (m): path plus pushes."""
+        return self.path + (self.push if self.push is not None else 0.0)
+
+
+def push_bound(speed: np.ndarray, v_max: float, dt: float) -> np.ndarray:
+    """How far a contact may move a robot sideways in one control step (m): its own commanded
+    distance (a robot sliding along a wall moves at most that far) plus a quarter of the fastest
+    any robot drives (others may shove it)."""
+    return (np.abs(speed) + 0.25 * v_max) * dt
+
+
+def lateral(phi: np.ndarray) -> np.ndarray:
+    """``(R, 2)`` unit vectors to the robots' left, in their frame at the last picture, for
+    heading changes ``phi`` since that picture."""
+    return np.column_stack([-np.sin(phi), np.cos(phi)])
 
 
 class Odometry:
@@ -68,9 +100,11 @@ class Odometry:
             turn (``RobotConfig.odometry_noise``).
     """
 
-    def __init__(self, n: int, noise: float) -> None:
+    def __init__(self, n: int, noise: float, v_max: float = 0.0, dt: float = 0.0) -> None:
         self.n = n
         self.noise = noise
+        self.v_max = v_max
+        self.dt = dt
         self.since_picture = np.zeros((n, 3))
         """``(N, 3)`` own-frame ``(dx, dy, dphi)`` since the latest picture (m, m, rad)."""
         self._start_interval()
@@ -79,10 +113,19 @@ class Odometry:
         self.path = np.zeros(self.n)
         self.sum_ds2 = np.zeros(self.n)
         self.sum_dth2 = np.zeros(self.n)
-        self.contact_steps = np.zeros(self.n)
+        self.push = np.zeros(self.n)
+        self.push_sum = np.zeros((self.n, 2))
+        self.contacts = False
 
-    def integrate(self, motion: Motion, rng: np.random.Generator) -> None:
-        """Add one control step of wheel motion (with noise drawn from ``rng`` if any)."""
+    def integrate(self, motion: Motion, rng: np.random.Generator, speed: np.ndarray) -> None:
+        """Add one control step of wheel motion (with noise drawn from ``rng`` if any);
+        ``speed`` ``(N,)`` is the commanded forward speed (m/s), for the contact bound."""
+        if motion.contact.any():
+            who = np.flatnonzero(motion.contact)
+            bound = push_bound(speed[who], self.v_max, self.dt)
+            self.push[who] += bound
+            self.push_sum[who] += bound[:, None] * lateral(self.since_picture[who, 2])
+            self.contacts = True
         forward, turned = motion.forward, motion.turned
         if self.noise > 0.0:
             factors = 1.0 + self.noise * rng.standard_normal((2, self.n))
@@ -93,7 +136,6 @@ class Odometry:
         self.path += step_ds
         self.sum_ds2 += step_ds**2
         self.sum_dth2 += step_dth**2
-        self.contact_steps += motion.contact
         odo = self.since_picture
         for ds, dth in zip(forward, turned, strict=True):
             phi = odo[:, 2]
@@ -101,13 +143,8 @@ class Odometry:
             odo[:, 1] += ds * np.sin(phi)
             odo[:, 2] += dth
 
-    def mark_picture(self, push_per_step: float) -> Interval:
-        """Start a new interval at a picture; return the one just ended.
-
-        Args:
-            push_per_step: how far a contact may move a robot in one control step (m); a robot's
-                ``push`` is this times the number of steps it was in contact.
-        """
+    def mark_picture(self) -> Interval:
+        """Start a new interval at a picture; return the one just ended."""
         ended = self.since_picture
         interval = Interval(
             d=ended[:, :2].copy(),
@@ -115,7 +152,8 @@ class Odometry:
             path=self.path,
             sum_ds2=self.sum_ds2,
             sum_dth2=self.sum_dth2,
-            push=self.contact_steps * push_per_step,
+            push=self.push if self.contacts else None,
+            push_sum=self.push_sum if self.contacts else None,
         )
         self.since_picture = np.zeros((self.n, 3))
         self._start_interval()

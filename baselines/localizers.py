@@ -78,8 +78,7 @@ class Localizer:
 
     def _reach(self, interval: Interval) -> float:
         """Farthest any robot may move in the image over ``interval`` (image units)."""
-        travel = interval.path + (interval.push if interval.push is not None else 0.0)
-        return float(self.scale * 1.1 * travel.max() + 6.0 * self.sigma + self.scale * 0.05)
+        return float(self.scale * 1.1 * interval.reach.max() + 6.0 * self.sigma + self.scale * 0.05)
 
     def _set_from_chi2(self, chi2: np.ndarray, dof: int) -> None:
         self.belief = scores_to_belief(chi2)

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from anonloc_env.identify import Interval
+from anonloc_env.odometry import Interval, lateral, push_bound
 
 
 @dataclass(frozen=True)
@@ -72,13 +72,16 @@ class MotionLog:
 
     Args:
         n: number of robots R.
-        push_per_step: how far a contact may shove a robot in one control step without its wheels
-            noticing (m), e.g. ``v_max * dt``.
+        v_max: the robots' top speed (m/s), to bound what contacts do unseen.
+        dt: the control step (s).
     """
 
-    def __init__(self, n: int, push_per_step: float) -> None:
+    def __init__(self, n: int, v_max: float, dt: float) -> None:
         self.n = n
-        self.push_per_step = push_per_step
+        self.v_max = v_max
+        self.dt = dt
+        self.speed = np.zeros(n)
+        """``(R,)`` forward speed commanded for the step under way (set by the team)."""
         self.reset()
 
     def reset(self) -> None:
@@ -87,14 +90,21 @@ class MotionLog:
         self.path = np.zeros(self.n)
         self.sum_ds2 = np.zeros(self.n)
         self.sum_dth2 = np.zeros(self.n)
-        self.bumps = np.zeros(self.n)
+        self.push = np.zeros(self.n)
+        self.push_sum = np.zeros((self.n, 2))
+        self.contacts = False
 
     def _add(self, increment: np.ndarray, bumper: np.ndarray) -> None:
         ds = np.hypot(increment[:, 0], increment[:, 1])
         self.path += ds
         self.sum_ds2 += ds**2
         self.sum_dth2 += increment[:, 2] ** 2
-        self.bumps += bumper
+        if bumper.any():
+            who = np.flatnonzero(bumper)
+            bound = push_bound(self.speed[who], self.v_max, self.dt)
+            self.push[who] += bound
+            self.push_sum[who] += bound[:, None] * lateral(self.last[who, 2])
+            self.contacts = True
 
     def observe(self, step: Step) -> Interval | None:
         """Take in one step; return the interval that ended if a picture arrived."""
@@ -110,7 +120,8 @@ class MotionLog:
             path=self.path.copy(),
             sum_ds2=self.sum_ds2.copy(),
             sum_dth2=self.sum_dth2.copy(),
-            push=self.bumps * self.push_per_step,
+            push=self.push.copy() if self.contacts else None,
+            push_sum=self.push_sum.copy() if self.contacts else None,
         )
         self.reset()
         self.last = step.odometry

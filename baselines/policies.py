@@ -75,7 +75,7 @@ class Team:
             if listener.n != localizer.n:
                 raise ValueError(f"listener {name!r} has {listener.n} robots, not {localizer.n}")
         self.n = localizer.n
-        self.log = MotionLog(self.n, config.robot.v_max * config.dt)
+        self.log = MotionLog(self.n, config.robot.v_max, config.dt)
         self.reset([None] * self.n)
 
     def reset(self, seeds: Sequence[int | np.random.SeedSequence | None]) -> None:
@@ -107,7 +107,9 @@ class Team:
         if hasattr(self.excitation, "observations"):  # a policy as excitation needs them
             self.excitation.observations = list(observations)
         v, w = self.excitation.commands(step, self.config.dt)
-        return to_actions(v, w, self.config.robot)
+        actions = to_actions(v, w, self.config.robot)
+        self.log.speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+        return actions
 
     def _pick(self, listener: str | None) -> Localizer:
         if listener is None:

@@ -9,8 +9,10 @@ import anonloc_env
 from anonloc_env.rewards import StepContext
 
 
-def test_default_reward_is_the_documented_energy_cost() -> None:
-    env = anonloc_env.parallel_env(n_robots=2, dt=0.05, reward={"energy_weight": 2.0})
+def test_energy_cost_reward_is_the_documented_formula() -> None:
+    env = anonloc_env.parallel_env(
+        n_robots=2, dt=0.05, reward={"energy_weight": 2.0}, reward_fn=anonloc_env.EnergyCost()
+    )
     env.reset(seed=0)
     _, rewards, *_ = env.step({"robot_0": [0.5, 0.0], "robot_1": [0.0, -1.0]})
     robot = env.config.robot
@@ -25,7 +27,7 @@ class PictureCounter:
     def __init__(self) -> None:
         self.resets = 0
 
-    def reset(self, config: anonloc_env.EnvConfig, rng: np.random.Generator) -> None:
+    def reset(self, config: anonloc_env.EnvConfig, rng: np.random.Generator, picture=None) -> None:
         self.resets += 1
 
     def __call__(self, context: StepContext) -> np.ndarray:
