@@ -23,6 +23,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from baselines.excitations import LinearSettings
+
 #: The paper's camera: scale from 20.8 to 22.07 image units per unit, 21.42 used by the robots.
 SCALE_RANGE = (20.8, 22.07)
 SCALE_USED = 21.42
@@ -45,15 +47,17 @@ def linear_deviation(
     pixel_noise: float, runs: int = 100, samples: int = 400, seed: int = 0
 ) -> tuple[float, float]:
     """Median over ``samples`` experiments of ``runs`` runs of the mean and the standard deviation
-    of ``|ratio_measured - v0 / v1|`` (speeds uniform in (0, 0.1] units/s, straight drives).
+    of ``|ratio_measured - v0 / v1|`` (speeds uniform in [0, 0.1] units/s as the linear
+    excitation draws them, straight drives).
 
     The deviation is heavy-tailed (a slow second leg makes both ratios huge), so one experiment's
     mean is a noisy number; the median over experiments is what a typical paper run would show.
     """
     rng = np.random.default_rng(seed)
     size = (samples, runs)
-    v0 = rng.uniform(0.0, 0.1, size)
-    v1 = rng.uniform(0.0, 0.1, size)
+    speeds = LinearSettings()
+    v0 = rng.uniform(speeds.min_speed, speeds.max_speed, size)
+    v1 = rng.uniform(speeds.min_speed, speeds.max_speed, size)
     scale = _scales(rng, size)
     leg0 = scale * v0 * PICTURE_INTERVAL
     leg1 = scale * v1 * PICTURE_INTERVAL

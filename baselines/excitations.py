@@ -84,7 +84,8 @@ class Angular(Excitation):
 
 @dataclass
 class LinearSettings:
-    """Drive straight at a speed drawn uniformly in ``[min_speed, max_speed]`` m/s per picture."""
+    """Drive straight at a speed drawn uniformly in ``[min_speed, max_speed]`` m/s per picture
+    (the paper: "random linear speeds limited to 0.1 unit/second")."""
 
     max_speed: float = 0.1
     min_speed: float = 0.0

@@ -61,7 +61,7 @@ def residuals(
     p1: np.ndarray,
     p2: np.ndarray,
     ratio: np.ndarray,
-    pixel_noise: float,
+    pixel_noise: float | np.ndarray,
     reach01: float,
     reach12: float,
 ) -> np.ndarray:
@@ -70,7 +70,8 @@ def residuals(
     Args:
         p0, p1, p2: ``(n_k, 2)`` detections of the three pictures.
         ratio: ``(R,)`` each robot's ``a = v0 T0 / (v1 T1)``, > 0.
-        pixel_noise: standard deviation of a detection coordinate (image units), > 0.
+        pixel_noise: standard deviation of a detection coordinate (image units), > 0; a scalar or
+            ``(R,)`` (a robot whose odometry is less sure tests with a wider tolerance).
         reach01, reach12: how far any robot can move between pictures 0-1 and 1-2 (image units).
     Rows no track reaches get ``inf``.
     """
@@ -83,7 +84,8 @@ def residuals(
     first = p1[b] - p0[a]  # (T, 2)
     err = (p2[c] - p1[b])[None] - k[..., None] * first[None]  # (R, T, 2)
     # r - q - k (q - p) = r - (1 + k) q + k p: each detection's noise enters with these weights.
-    var = pixel_noise**2 * (1.0 + (1.0 + k) ** 2 + k**2)
+    sigma = np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), ratio.shape)[:, None]
+    var = sigma**2 * (1.0 + (1.0 + k) ** 2 + k**2)
     chi2 = (err**2).sum(axis=-1) / var  # (R, T)
     np.minimum.at(out, (np.arange(len(ratio))[:, None], c[None, :]), chi2)
     return out

@@ -80,6 +80,14 @@ class Localizer:
         """Farthest any robot may move in the image over ``interval`` (image units)."""
         return float(self.scale * 1.1 * interval.reach.max() + 6.0 * self.sigma + self.scale * 0.05)
 
+    def _sigma(self, interval: Interval) -> np.ndarray:
+        """``(R,)`` per-coordinate tolerance (image units) of a detection's displacement: pixel
+        noise, each robot's odometry noise, and what contacts may have moved it unseen."""
+        var_d, _ = interval.variances(self.model.odometry_noise)
+        cov = interval.push_covariance()
+        push = 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
+        return np.sqrt(self.sigma**2 + self.scale**2 * (var_d + push))
+
     def _set_from_chi2(self, chi2: np.ndarray, dof: int) -> None:
         self.belief = scores_to_belief(chi2)
         self.estimate = decide(chi2, CHI2_THRESHOLD[dof])
@@ -119,7 +127,8 @@ class AngularLocalizer(Localizer):
             )
             return
         size = self.config.robot.size
-        res = angular.residuals(first, second, interval.dphi, self.scale * size + 6 * self.sigma)
+        shift = self.scale * (size + float(interval.reach.max())) + 6 * self.sigma
+        res = angular.residuals(first, second, interval.dphi, shift)
         _, var_dphi = interval.variances(self.model.odometry_noise)
         var = 2 * self.model.orientation_noise**2 + var_dphi[:, None] + 1e-8
         self._set_from_chi2(res**2 / var, dof=1)
@@ -149,9 +158,8 @@ class LinearLocalizer(Localizer):
         len0, len1 = np.hypot(*first.d.T), np.hypot(*second.d.T)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(len1 > 0, len0 / len1, np.inf)
-        chi2 = linear.residuals(
-            p0, p1, p2, ratio, self.sigma, self._reach(first), self._reach(second)
-        )
+        sigma = np.hypot(self._sigma(first), self._sigma(second))
+        chi2 = linear.residuals(p0, p1, p2, ratio, sigma, self._reach(first), self._reach(second))
         self._set_from_chi2(chi2, dof=2)
 
 
@@ -166,8 +174,7 @@ class MotionLocalizer(Localizer):
             self._set_from_deviation(dev.min(axis=1))
             return
         orientation = self.model.orientation_noise if self.model.orientation else None
-        var_d, _ = interval.variances(self.model.odometry_noise)
-        sigma = math.sqrt(self.sigma**2 + self.scale**2 * float(var_d.max()) / 2)
+        sigma = self._sigma(interval)
         chi2 = motion.residuals(
             first,
             second,
@@ -200,7 +207,7 @@ class Motion3Localizer(Localizer):
             first.d,
             first.dphi,
             second.d,
-            self.sigma,
+            np.hypot(self._sigma(first), self._sigma(second)),
             2 * self._reach(first),
             2 * self._reach(second),
         )

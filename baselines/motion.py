@@ -63,7 +63,7 @@ def residuals(
     d: np.ndarray,
     dphi: np.ndarray,
     scale: float,
-    pixel_noise: float,
+    pixel_noise: float | np.ndarray,
     reach: float,
     orientation_noise: float | None = None,
 ) -> np.ndarray:
@@ -73,7 +73,7 @@ def residuals(
         first, second: ``(n, 3)`` rows ``(u, v, theta)`` of the two pictures.
         d: ``(R, 2)`` own displacements (m); dphi: ``(R,)`` own heading changes (rad).
         scale: image units per metre.
-        pixel_noise: detection noise per coordinate (image units), > 0.
+        pixel_noise: detection noise per coordinate (image units), > 0: a scalar or ``(R,)``.
         reach: farthest any robot can move between the pictures (image units).
         orientation_noise: noise of a detected heading (rad); None if headings are not detected.
             With headings the chi-square has 3 degrees of freedom (vector and turn), else 1.
@@ -85,7 +85,9 @@ def residuals(
     i, j, dist = pairs_within(first[:, :2], second[:, :2], reach)
     if len(i) == 0:
         return out
-    var = 2.0 * pixel_noise**2
+    var = (
+        2.0 * np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), (n_robots,))[:, None] ** 2
+    )
     if orientation_noise is None:
         length = scale * np.hypot(*d.T)  # (R,)
         chi2 = (dist[None, :] - length[:, None]) ** 2 / var
@@ -122,7 +124,7 @@ def scale_free_residuals(
     d1: np.ndarray,
     dphi1: np.ndarray,
     d2: np.ndarray,
-    pixel_noise: float,
+    pixel_noise: float | np.ndarray,
     reach01: float,
     reach12: float,
 ) -> np.ndarray:
@@ -133,10 +135,11 @@ def scale_free_residuals(
         p0, p1, p2: ``(n_k, 2)`` detections of the three pictures.
         d1, d2: ``(R, 2)`` own displacements over the two intervals (each in the robot's frame at
             the start of its interval); dphi1: ``(R,)`` heading change over the first interval.
-        pixel_noise: detection noise (image units), > 0.
+        pixel_noise: detection noise (image units), > 0: a scalar or ``(R,)``.
         reach01, reach12: farthest any robot can move over each interval (image units).
     """
     d1, d2 = np.atleast_2d(d1), np.atleast_2d(d2)
+    sigma = np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), (len(d1),))[:, None]
     dphi1 = np.atleast_1d(dphi1)
     n_robots = len(d1)
     out = np.full((n_robots, len(p2)), np.inf)
@@ -150,7 +153,7 @@ def scale_free_residuals(
     r1 = np.hypot(*leg1[0].T)[None]
     r2 = np.hypot(*leg2[0].T)[None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        var = pixel_noise**2 * (2.0 + 2.0 * (r2 / r1) ** 2 + 2.0 * r2 / np.maximum(r1, 1e-12))
+        var = sigma**2 * (2.0 + 2.0 * (r2 / r1) ** 2 + 2.0 * r2 / np.maximum(r1, 1e-12))
         chi2 = ((leg2 - pred) ** 2).sum(-1) / var
     chi2 = np.where(np.isfinite(chi2), chi2, np.inf)
     np.minimum.at(out, (np.arange(n_robots)[:, None], c[None, :]), chi2)

@@ -143,11 +143,16 @@ class BaselinePolicy:
         self.name = name
         self._build = build
         self._teams: list[Team] = [build()]
-        self._seed: int | None = None
+        self._seed: int | np.random.SeedSequence | None = None
 
-    def reset(self, seed: int | None = None) -> None:
+    def reset(self, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Start an episode; the robot's random choices come from ``seed`` (a ``SeedSequence``
+        is used as is, so a policy can share a team's i-th stream)."""
         self._seed = seed
-        seeds = np.random.SeedSequence(seed).spawn(len(self._teams))
+        if isinstance(seed, np.random.SeedSequence):
+            seeds = [seed] + seed.spawn(len(self._teams) - 1)
+        else:
+            seeds = np.random.SeedSequence(seed).spawn(len(self._teams))
         for team, s in zip(self._teams, seeds, strict=True):
             team.reset([s])
 
@@ -166,7 +171,7 @@ class BaselinePolicy:
         size = len(observation["detections"])
         while len(self._teams) < size:
             self._teams.append(self._build())
-            self._teams[-1].reset([np.random.SeedSequence(self._seed).spawn(size)[-1]])
+            self._teams[-1].reset([None])
         starts = np.zeros(size, bool) if episode_start is None else np.asarray(episode_start)
         actions = np.empty((size, 2), np.float32)
         for i in range(size):

@@ -1,0 +1,233 @@
+"""The localizers' pure functions against hand-computed cases (no env)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from anonloc_env.geometry import rotate
+from anonloc_env.identify import log_i0e, ring_loglik
+from anonloc_env.neighbours import pairs_within
+from baselines import angular, linear, motion
+from baselines.geometry import decide, match_nearest, scores_to_belief
+
+
+def test_pairs_within_matches_brute_force() -> None:
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, 50, (80, 2)), rng.uniform(0, 50, (90, 2))
+    i, j, dist = pairs_within(a, b, 6.0)
+    brute = {(p, q) for p in range(80) for q in range(90) if np.hypot(*(a[p] - b[q])) <= 6.0}
+    assert set(zip(i.tolist(), j.tolist(), strict=True)) == brute
+    np.testing.assert_allclose(dist, np.hypot(*(b[j] - a[i]).T))
+
+
+def test_match_nearest_pairs_each_point_with_its_closest() -> None:
+    first = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]])
+    second = np.array([[19.5, 0.2], [0.3, -0.1], [50.0, 50.0]])
+    np.testing.assert_array_equal(match_nearest(first, second, 2.0), [2, 0, -1])
+
+
+# -- angular (paper Algorithm 1) -------------------------------------------------------------
+
+
+def test_faithful_angular_compares_same_index_without_sign_or_wrap() -> None:
+    # Robot rotates by 0.5 rad; as printed, |theta_i(p) - theta_j(p)| with the same p.
+    res = angular.faithful_residuals(np.array([0.1, 3.0]), np.array([0.6, -2.8]), np.array([0.5]))
+    np.testing.assert_allclose(res, [[0.0, abs(0.5 - 5.8)]])
+
+
+def test_faithful_angular_fails_when_the_picture_is_shuffled() -> None:
+    """Failure mode of the paper's index assumption: the same robots, rows swapped."""
+    first = np.array([[0.0, 0.0, 0.2], [50.0, 0.0, 0.7]])
+    second = first[::-1].copy()
+    second[:, 2] += [0.1, 0.4]  # robot B turned by 0.1, robot A (row 1 now) by 0.4
+    rotation_a = np.array([0.4])
+    faithful = angular.faithful_residuals(first[:, 2], second[:, 2], rotation_a)
+    corrected = angular.residuals(first, second, rotation_a, max_shift=1.0)
+    assert np.argmin(corrected[0]) == 1  # the corrected test finds robot A in row 1
+    assert np.argmin(faithful[0]) == 0  # the faithful one answers row 0: wrong
+
+
+def test_corrected_angular_wraps_across_pi() -> None:
+    """A CCW turn of 0.3 rad from 3.0 rad ends at -2.983 rad: the faithful |difference| says
+    5.98 rad and misses it; the corrected test sees exactly 0.3."""
+    first = np.array([[0.0, 0.0, 3.0]])
+    second = np.array([[0.0, 0.0, 3.3 - 2 * math.pi]])
+    res = angular.residuals(first, second, np.array([0.3]), max_shift=1.0)
+    assert res[0, 0] == pytest.approx(0.0, abs=1e-12)
+    assert angular.faithful_residuals(first[:, 2], second[:, 2], np.array([0.3]))[0, 0] > 5.0
+
+
+# -- linear (paper II.B) ----------------------------------------------------------------------
+
+
+def _two_robot_pictures() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Robot A drives straight 4 then 2 units; robot B drives 4 then 2 but turns 90 degrees."""
+    p0 = np.array([[0.0, 0.0], [0.0, 10.0]])
+    p1 = np.array([[4.0, 0.0], [4.0, 10.0]])
+    p2 = np.array([[6.0, 0.0], [4.0, 12.0]])
+    return p0, p1, p2
+
+
+def test_faithful_linear_cannot_tell_a_turning_robot_with_the_same_ratio() -> None:
+    p0, p1, p2 = _two_robot_pictures()
+    rows, deviation = linear.faithful_search(p0, p1, p2, np.array([2.0]))
+    assert deviation[0] == 0.0  # both tracks give exactly the ratio 2: a tie
+    assert rows[0] == 0  # argmin takes the first, right here only by luck of the order
+    swapped_rows, _ = linear.faithful_search(p0[::-1], p1[::-1], p2[::-1], np.array([2.0]))
+    assert swapped_rows[0] == 0  # ... and robot B's row once the rows are listed the other way
+
+
+def test_corrected_linear_tests_ratio_collinearity_and_direction() -> None:
+    p0, p1, p2 = _two_robot_pictures()
+    chi2 = linear.residuals(p0, p1, p2, np.array([2.0]), 0.1, 10.0, 10.0)
+    assert chi2[0, 0] == pytest.approx(0.0, abs=1e-12)
+    assert chi2[0, 1] > 100.0  # B turned: far off the straight-line prediction
+    # r - q - k (q - p) on a hand-made noisy triple: e = (6.3, 0.4) - (4, 0) - 0.5 (4, 0).
+    chi2 = linear.residuals(p0[:1], p1[:1], np.array([[6.3, 0.4]]), np.array([2.0]), 1.0, 9, 9)
+    assert chi2[0, 0] == pytest.approx((0.3**2 + 0.4**2) / (1 + 1.5**2 + 0.5**2))
+
+
+def test_faithful_linear_refuses_huge_pictures() -> None:
+    big = np.zeros((300, 2))
+    with pytest.raises(ValueError, match="O\\(n\\^3\\)"):
+        linear.faithful_search(big, big, big, np.array([1.0]))
+
+
+# -- motion (paper II.C, eq. 15-24) ------------------------------------------------------------
+
+
+def worked_example(phi: float) -> dict[str, float | np.ndarray]:
+    """The paper's eq. 15-23 on one robot: scale 21.42, own displacement d, image heading at
+    picture m such that theta_m + alpha = phi."""
+    scale = 21.42
+    d = np.array([0.3, 0.4])  # A, B (times the control step)
+    alpha = math.atan2(d[1], d[0])
+    theta = phi - alpha
+    delta = scale * rotate(d, theta)
+    return {"scale": scale, "d": d, "alpha": alpha, "theta": theta, "delta": delta}
+
+
+def test_eq_16_to_19_on_a_worked_example() -> None:
+    ex = worked_example(phi=1.0)
+    d, delta, scale = ex["d"], ex["delta"], ex["scale"]
+    A, B = d
+    C, D = delta / scale  # eq. 18 and its y twin
+    rho = math.hypot(A, B)  # eq. 19: 0.5
+    assert rho == pytest.approx(0.5)
+    # eq. 20 and 22: the x row and the y row both give theta_m.
+    assert math.acos(C / rho) - math.atan(B / A) == pytest.approx(ex["theta"])
+    assert math.asin(D / rho) - math.atan(B / A) == pytest.approx(ex["theta"])
+    # Both rows are solvable exactly when |q - p| = s |d| (C^2 + D^2 = rho^2).
+    assert C**2 + D**2 == pytest.approx(rho**2)
+
+
+@pytest.mark.parametrize("phi", [0.3, 1.2, 2.5, -0.7])
+def test_faithful_motion_agrees_on_the_true_pair_when_no_wrap_is_needed(phi: float) -> None:
+    ex = worked_example(phi)
+    p_m = np.array([[100.0, 100.0]])
+    dev = motion.faithful_deviation(p_m, p_m + ex["delta"], ex["d"][None], ex["scale"])
+    assert dev[0, 0, 0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_faithful_motion_fails_without_wrapping() -> None:
+    """Failure mode of comparing angles without wrapping: for theta_m + alpha in (-pi, -pi/2)
+    the x and y rows' solutions differ by 2 pi on the matching branch, so the true pair shows
+    a large disagreement (here 1.28 rad) although the motion fits exactly."""
+    ex = worked_example(phi=-2.5)
+    p_m = np.array([[100.0, 100.0]])
+    dev = motion.faithful_deviation(p_m, p_m + ex["delta"], ex["d"][None], ex["scale"])
+    assert dev[0, 0, 0] == pytest.approx(2 * math.pi - 5.0, abs=1e-9)
+    corrected = motion.residuals(
+        np.array([[100.0, 100.0, ex["theta"]]]),
+        np.array([[*(np.array([100.0, 100.0]) + ex["delta"]), ex["theta"] + 0.1]]),
+        ex["d"][None],
+        np.array([0.1]),
+        ex["scale"],
+        0.5,
+        50.0,
+    )
+    assert corrected[0, 0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_scale_free_motion_predicts_the_second_leg() -> None:
+    """eq. 24: with the scale unknown, leg 1 gives s and theta; leg 2 is predicted exactly."""
+    scale, theta = 33.0, 0.7
+    d1, dphi1, d2 = np.array([0.5, 0.1]), 0.4, np.array([0.3, -0.2])
+    p0 = np.array([[10.0, 10.0]])
+    p1 = p0 + scale * rotate(d1, theta)
+    p2 = p1 + scale * rotate(d2, theta + dphi1)
+    chi2 = motion.scale_free_residuals(
+        p0, p1, p2, d1[None], np.array([dphi1]), d2[None], 0.5, 100.0, 100.0
+    )
+    assert chi2[0, 0] == pytest.approx(0.0, abs=1e-9)
+    dev = motion.faithful_scale_free_deviation(p0, p1, p2, d1[None], np.array([dphi1]), d2[None])
+    assert dev[0, 0] == pytest.approx(0.0, abs=1e-9)  # here arctan keeps the quadrant
+
+
+def test_faithful_scale_free_loses_the_quadrant() -> None:
+    """The paper's arctan(B/A): when the leg points left, theta comes out off by pi."""
+    scale, theta = 30.0, 2.5  # the first leg points into the left half-plane
+    d1, dphi1, d2 = np.array([0.5, 0.1]), 0.2, np.array([0.4, 0.0])
+    p0 = np.array([[0.0, 0.0]])
+    p1 = p0 + scale * rotate(d1, theta)
+    p2 = p1 + scale * rotate(d2, theta + dphi1)
+    dev = motion.faithful_scale_free_deviation(p0, p1, p2, d1[None], np.array([dphi1]), d2[None])
+    assert dev[0, 0] == pytest.approx(2 * scale * 0.4, rel=1e-9)  # predicted backwards
+
+
+# -- scoring and deciding ---------------------------------------------------------------------
+
+
+def test_beliefs_and_decisions_from_scores() -> None:
+    chi2 = np.array([[0.0, 2 * math.log(3.0), np.inf], [np.inf, np.inf, np.inf]])
+    belief = scores_to_belief(chi2)
+    np.testing.assert_allclose(belief[0], [0.75, 0.25, 0.0])
+    np.testing.assert_allclose(belief[1], [1 / 3] * 3)
+    np.testing.assert_array_equal(decide(chi2, 1.0), [0, -1])
+
+
+def test_log_i0e_matches_numpy() -> None:
+    x = np.array([0.0, 0.5, 3.7, 3.8, 10.0, 200.0])
+    np.testing.assert_allclose(
+        log_i0e(x), np.log(np.i0(x)) - x, rtol=0, atol=5e-7
+    )  # A&S: 2e-7 relative
+
+
+def test_ring_density_integrates_to_one() -> None:
+    """The ring likelihood is a density over the plane (checked numerically in polar form)."""
+    r = np.linspace(1e-6, 40.0, 200_001)
+    for rho, var in [(10.0, 2.0), (0.0, 1.0), (3.0, 9.0)]:
+        dens = np.exp(ring_loglik(r, np.full_like(r, rho), np.full_like(r, var)))
+        total = np.trapezoid(dens * 2 * math.pi * r, r)
+        assert total == pytest.approx(1.0, abs=1e-6)
+
+
+# -- property: a noise-free trajectory always scores its own row best -------------------------
+
+coords = st.floats(-200.0, 200.0, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    others=st.lists(st.tuples(coords, coords, coords, coords), min_size=1, max_size=6),
+    start=st.tuples(coords, coords),
+    heading=st.floats(-math.pi, math.pi),
+    d=st.tuples(st.floats(0.2, 2.0), st.floats(-1.0, 1.0)),
+    dphi=st.floats(-1.0, 1.0),
+)
+def test_noise_free_own_row_scores_best(others, start, heading, d, dphi) -> None:
+    scale = 20.0
+    own_first = np.array([*start, heading])
+    own_second = np.array(
+        [*(np.array(start) + scale * rotate(np.array(d), heading)), heading + dphi]
+    )
+    first = np.array([own_first] + [[o[0], o[1], o[2]] for o in others])
+    second = np.array([own_second] + [[o[0] + o[3], o[1] - o[3], o[2] + 0.5] for o in others])
+    chi2 = motion.residuals(first, second, np.array([d]), np.array([dphi]), scale, 0.5, 500.0, 0.02)
+    assert chi2[0, 0] == pytest.approx(0.0, abs=1e-6)
+    assert np.argmin(chi2[0]) == 0 or chi2[0].min() == pytest.approx(0.0, abs=1e-6)
