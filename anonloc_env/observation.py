@@ -27,7 +27,10 @@ history_interval     (K,)       time from history picture k to the next newer on
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Sequence
+from itertools import repeat
+from operator import setitem
 from typing import Any
 
 import numpy as np
@@ -60,6 +63,10 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
 def _frozen(array: np.ndarray) -> np.ndarray:
     array.flags.writeable = False
     return array
+
+
+#: Stands in a template for the per-agent arrays, which replace it before it is handed out.
+_PLACEHOLDER = _frozen(np.zeros(0, np.float32))
 
 
 class ObservationBuilder:
@@ -136,40 +143,39 @@ class ObservationBuilder:
         """Every agent's observation; ``agents`` are in robot order, ``odometry`` is ``(N, 3)``
         and ``bumper`` ``(N,)`` bool."""
         since = time - (self._picture_time if self._picture_time is not None else 0.0)
-        shared = self._shared
-        detections, mask = shared["detections"], shared["mask"]
-        flag = self._flags[new_picture]
         since_arr = _frozen(np.array([since], np.float32))
-        odo_rows = list(_frozen(odometry.astype(np.float32)))
-        bump_rows = list(_frozen(bumper.astype(np.float32).reshape(-1, 1)))
-        if self.history == 0:
-            return {
-                agent: {
-                    "detections": detections,
-                    "mask": mask,
-                    "new_picture": flag,
-                    "since_picture": since_arr,
-                    "odometry": odo,
-                    "bumper": bump,
-                }
-                for agent, odo, bump in zip(agents, odo_rows, bump_rows, strict=True)
-            }
-        hist_det, hist_mask = shared["history_detections"], shared["history_mask"]
-        hist_interval = shared["history_interval"]
-        return {
-            agent: {
-                "detections": detections,
-                "mask": mask,
-                "new_picture": flag,
-                "since_picture": since_arr,
-                "odometry": odo,
-                "bumper": bump,
-                "history_detections": hist_det,
-                "history_mask": hist_mask,
-                "history_odometry": hist_odo,
-                "history_interval": hist_interval,
-            }
-            for agent, odo, bump, hist_odo in zip(
-                agents, odo_rows, bump_rows, self._history_rows, strict=True
-            )
+        flag = self._flags[new_picture]
+        # One template per bumper value (the read-only constants [0.] and [1.], like
+        # ``new_picture``), holding every key in the documented order.
+        templates = (
+            self._template(flag, since_arr, self._flags[False]),
+            self._template(flag, since_arr, self._flags[True]),
+        )
+        # A copy of a template per agent, then its own rows set in. ``map`` runs these loops in
+        # C, faster than a comprehension building each dict from scratch; ``deque(it, 0)``
+        # drains an iterator without keeping anything.
+        obs = list(map(dict.copy, map(templates.__getitem__, bumper.tolist())))
+        deque(map(setitem, obs, repeat("odometry"), _frozen(odometry.astype(np.float32))), 0)
+        if self.history > 0:
+            deque(map(setitem, obs, repeat("history_odometry"), self._history_rows), 0)
+        return dict(zip(agents, obs, strict=True))
+
+    def _template(
+        self, flag: np.ndarray, since: np.ndarray, bump: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """An observation with the shared arrays and a placeholder where the per-agent rows go."""
+        shared = self._shared
+        template = {
+            "detections": shared["detections"],
+            "mask": shared["mask"],
+            "new_picture": flag,
+            "since_picture": since,
+            "odometry": _PLACEHOLDER,
+            "bumper": bump,
         }
+        if self.history > 0:
+            template["history_detections"] = shared["history_detections"]
+            template["history_mask"] = shared["history_mask"]
+            template["history_odometry"] = _PLACEHOLDER
+            template["history_interval"] = shared["history_interval"]
+        return template

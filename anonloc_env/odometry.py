@@ -31,17 +31,21 @@ class Odometry:
 
     def integrate(self, motion: Motion, rng: np.random.Generator) -> None:
         """Add one control step of wheel motion (with noise drawn from ``rng`` if any)."""
-        forward, turned = motion.forward, motion.turned
-        if self.noise > 0.0:
-            factors = 1.0 + self.noise * rng.standard_normal((2, self.n))
-            forward = forward * factors[0]
-            turned = turned * factors[1]
-        odo = self.since_picture
-        for ds, dth in zip(forward, turned, strict=True):
-            phi = odo[:, 2]
-            odo[:, 0] += ds * np.cos(phi)
-            odo[:, 1] += ds * np.sin(phi)
-            odo[:, 2] += dth
+        noisy = self.noise > 0.0
+        if noisy:
+            distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
+        x, y, phi = self.since_picture.T  # column views, updated in place
+        for ds, dth in zip(motion.forward, motion.turned, strict=True):
+            if noisy:
+                ds = ds * distance_factor
+                dth = dth * turn_factor
+            dx = np.cos(phi)
+            dx *= ds
+            dy = np.sin(phi)
+            dy *= ds
+            x += dx
+            y += dy
+            phi += dth
 
     def mark_picture(self) -> np.ndarray:
         """Start a new interval at a picture; return the ``(N, 3)`` motion of the one just ended."""

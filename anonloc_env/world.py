@@ -44,15 +44,15 @@ class Motion(NamedTuple):
     """What the wheels did during one control step.
 
     Attributes:
-        forward: ``(substeps, N)`` distance each robot moved along its heading in each sub-step
+        forward: one ``(N,)`` array per sub-step: the distance each robot moved along its heading
             (m). Sideways motion (being pushed) is not seen by wheel encoders and is left out.
-        turned: ``(substeps, N)`` heading change in each sub-step (rad).
+        turned: one ``(N,)`` array per sub-step: each robot's heading change (rad).
         contact: ``(N,)`` True where a contact moved the robot off its commanded path (it was
             blocked by a wall or a robot, or pushed): what a bumper switch reports.
     """
 
-    forward: np.ndarray
-    turned: np.ndarray
+    forward: list[np.ndarray]
+    turned: list[np.ndarray]
     contact: np.ndarray
 
 
@@ -159,6 +159,8 @@ class World:
         self._velocity = np.zeros((self.n + 1, 3), dtype=np.float64)
         self._set_buffer = pmb.Buffer()
         self._set_buffer.set_float_buf(self._velocity.reshape(-1))
+        # Column views of the robots' rows, made once; ufuncs write into them.
+        self._vx, self._vy, self._w = self._velocity[: self.n].T
         self._get_buffer = pmb.Buffer()
         self._bump_tolerance = _BUMP_TOLERANCE * robot.size
         self.poses = np.asarray(poses, dtype=np.float64).copy()
@@ -186,35 +188,50 @@ class World:
             )
 
     def step(self, v: np.ndarray, w: np.ndarray) -> Motion:
-        """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``."""
-        n, h = self.n, self.substep_dt
-        forward = np.empty((self.substeps, n))
-        turned = np.empty((self.substeps, n))
-        contact = np.zeros(n, dtype=bool)
-        vel = self._velocity
-        vel[:n, 2] = w
-        fields = _SET_FIELDS
-        tolerance = self._bump_tolerance
-        for k in range(self.substeps):
+        """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``.
+
+        The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
+        broadcasts than on a few more 1-D calls.
+        """
+        h = self.substep_dt
+        vx, vy = self._vx, self._vy
+        forward, turned = [], []
+        worst = None  # per robot, largest gap between its displacement and its command
+        np.copyto(self._w, w)
+        for _ in range(self.substeps):
             poses = self.poses
-            cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            vel[:n, 0] = v * cos
-            vel[:n, 1] = v * sin
-            pmb.set_space_bodies(self.space, fields, self._set_buffer)
+            theta = poses[:, 2]
+            cos, sin = np.cos(theta), np.sin(theta)
+            np.multiply(v, cos, out=vx)
+            np.multiply(v, sin, out=vy)
+            pmb.set_space_bodies(self.space, _SET_FIELDS, self._set_buffer)
             self.space.step(h)
             new = self._read_poses()
             delta = new - poses
-            forward[k] = delta[:, 0] * cos + delta[:, 1] * sin
-            turned[k] = delta[:, 2]
-            # Free motion moves exactly by the commanded velocity; a contact pushes it off.
-            off = np.abs(delta[:, :2] - vel[:n, :2] * h)
-            contact |= off[:, 0] > tolerance
-            contact |= off[:, 1] > tolerance
+            dx, dy, dtheta = delta.T
+            # Wheel encoders see the displacement along the heading only.
+            along = dx * cos
+            along += dy * sin
+            forward.append(along)
+            turned.append(dtheta)
+            # Free motion moves exactly by the commanded velocity; a contact pushes it off. The
+            # whole (N, 3) rows are contiguous: one call each, the heading column is ignored.
+            off = self._velocity[: self.n] * h
+            np.subtract(delta, off, out=off)
+            np.abs(off, out=off)
+            if worst is None:
+                worst = np.maximum(off[:, 0], off[:, 1])
+            else:
+                np.maximum(worst, off[:, 0], out=worst)
+                np.maximum(worst, off[:, 1], out=worst)
             self.poses = new
-        return Motion(forward, turned, contact)
+        assert worst is not None  # substeps >= 1
+        return Motion(forward, turned, worst > self._bump_tolerance)
 
     def _read_poses(self) -> np.ndarray:
         buf = self._get_buffer
         buf.clear()
         pmb.get_space_bodies(self.space, _GET_FIELDS, buf)
-        return np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(-1, 3)[: self.n].copy()
+        # A view of pymunk's buffer, which the next read overwrites: keep a copy.
+        flat = np.frombuffer(buf.float_buf(), dtype=np.float64, count=3 * self.n)
+        return flat.reshape(self.n, 3).copy()
