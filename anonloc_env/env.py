@@ -300,7 +300,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
 
     def _infos(self) -> dict[str, dict[str, Any]]:
         # Fresh shallow copies: a wrapper that adds keys to one step's infos leaves the next alone.
-        copies = map(dict.copy, self._info_templates)  # a loop in C
+        copies = map(dict.copy, self._info_templates)  # a loop in C (see ``_dicts``)
         return dict(zip(self.possible_agents, copies, strict=True))
 
     def state(self) -> np.ndarray:

@@ -27,15 +27,13 @@ history_interval     (K,)       time from history picture k to the next newer on
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Sequence
-from itertools import repeat
-from operator import setitem
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
+from anonloc_env._dicts import copy_each, set_each
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
 
@@ -151,13 +149,11 @@ class ObservationBuilder:
             self._template(flag, since_arr, self._flags[False]),
             self._template(flag, since_arr, self._flags[True]),
         )
-        # A copy of a template per agent, then its own rows set in. ``map`` runs these loops in
-        # C, faster than a comprehension building each dict from scratch; ``deque(it, 0)``
-        # drains an iterator without keeping anything.
-        obs = list(map(dict.copy, map(templates.__getitem__, bumper.tolist())))
-        deque(map(setitem, obs, repeat("odometry"), _frozen(odometry.astype(np.float32))), 0)
+        # A copy of a template per agent, then its own rows set in (see ``_dicts``).
+        obs = copy_each(map(templates.__getitem__, bumper.tolist()))
+        set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
         if self.history > 0:
-            deque(map(setitem, obs, repeat("history_odometry"), self._history_rows), 0)
+            set_each(obs, "history_odometry", self._history_rows)
         return dict(zip(agents, obs, strict=True))
 
     def _template(

@@ -34,7 +34,8 @@ class Odometry:
         noisy = self.noise > 0.0
         if noisy:
             distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
-        x, y, phi = self.since_picture.T  # column views, updated in place
+        odo = self.since_picture
+        x, y, phi = odo[:, 0], odo[:, 1], odo[:, 2]  # column views, updated in place
         for ds, dth in zip(motion.forward, motion.turned, strict=True):
             if noisy:
                 ds = ds * distance_factor

@@ -36,6 +36,8 @@ _BUMP_TOLERANCE = 1e-9
 # Flag unions built once: combining enum flags costs microseconds per call.
 _SET_FIELDS = pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY
 _GET_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE
+#: One ``(x, y, theta)`` row: ``np.frombuffer`` with it gives ``(N, 3)`` arrays directly.
+_POSE = np.dtype((np.float64, 3))
 #: Fraction of the overlap of two shapes removed at every sub-step.
 _OVERLAP_CORRECTION = 0.5
 
@@ -159,10 +161,12 @@ class World:
         self._velocity = np.zeros((self.n + 1, 3), dtype=np.float64)
         self._set_buffer = pmb.Buffer()
         self._set_buffer.set_float_buf(self._velocity.reshape(-1))
-        # Column views of the robots' rows, made once; ufuncs write into them.
-        self._vx, self._vy, self._w = self._velocity[: self.n].T
+        # Views of the robots' rows and columns, made once; ufuncs write into them.
+        self._robot_velocity = self._velocity[: self.n]
+        self._vx, self._vy, self._w = self._robot_velocity.T
         self._get_buffer = pmb.Buffer()
-        self._bump_tolerance = _BUMP_TOLERANCE * robot.size
+        # A numpy scalar: comparing an array with a Python float costs a conversion per call.
+        self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
 
@@ -200,23 +204,21 @@ class World:
         np.copyto(self._w, w)
         for _ in range(self.substeps):
             poses = self.poses
-            theta = poses[:, 2]
-            cos, sin = np.cos(theta), np.sin(theta)
+            cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
             np.multiply(v, cos, out=vx)
             np.multiply(v, sin, out=vy)
             pmb.set_space_bodies(self.space, _SET_FIELDS, self._set_buffer)
             self.space.step(h)
             new = self._read_poses()
             delta = new - poses
-            dx, dy, dtheta = delta.T
             # Wheel encoders see the displacement along the heading only.
-            along = dx * cos
-            along += dy * sin
+            along = delta[:, 0] * cos
+            along += delta[:, 1] * sin
             forward.append(along)
-            turned.append(dtheta)
+            turned.append(delta[:, 2])
             # Free motion moves exactly by the commanded velocity; a contact pushes it off. The
             # whole (N, 3) rows are contiguous: one call each, the heading column is ignored.
-            off = self._velocity[: self.n] * h
+            off = self._robot_velocity * h
             np.subtract(delta, off, out=off)
             np.abs(off, out=off)
             if worst is None:
@@ -233,5 +235,4 @@ class World:
         buf.clear()
         pmb.get_space_bodies(self.space, _GET_FIELDS, buf)
         # A view of pymunk's buffer, which the next read overwrites: keep a copy.
-        flat = np.frombuffer(buf.float_buf(), dtype=np.float64, count=3 * self.n)
-        return flat.reshape(self.n, 3).copy()
+        return np.frombuffer(buf.float_buf(), dtype=_POSE, count=self.n).copy()
