@@ -145,10 +145,10 @@ class ObservationBuilder:
         flag = self._flags[new_picture]
         # One template per bumper value (the read-only constants [0.] and [1.], like
         # ``new_picture``), holding every key in the documented order.
-        templates = (
-            self._template(flag, since_arr, self._flags[False]),
-            self._template(flag, since_arr, self._flags[True]),
-        )
+        free = self._template(flag, since_arr)
+        bumped = free.copy()
+        bumped["bumper"] = self._flags[True]
+        templates = (free, bumped)
         # A copy of a template per agent, then its own rows set in (see ``_dicts``).
         obs = copy_each(map(templates.__getitem__, bumper.tolist()))
         set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
@@ -156,10 +156,9 @@ class ObservationBuilder:
             set_each(obs, "history_odometry", self._history_rows)
         return dict(zip(agents, obs, strict=True))
 
-    def _template(
-        self, flag: np.ndarray, since: np.ndarray, bump: np.ndarray
-    ) -> dict[str, np.ndarray]:
-        """An observation with the shared arrays and a placeholder where the per-agent rows go."""
+    def _template(self, flag: np.ndarray, since: np.ndarray) -> dict[str, np.ndarray]:
+        """An observation of a robot whose bumper is off, with the shared arrays, and a
+        placeholder where the per-agent rows go."""
         shared = self._shared
         template = {
             "detections": shared["detections"],
@@ -167,7 +166,7 @@ class ObservationBuilder:
             "new_picture": flag,
             "since_picture": since,
             "odometry": _PLACEHOLDER,
-            "bumper": bump,
+            "bumper": self._flags[False],
         }
         if self.history > 0:
             template["history_detections"] = shared["history_detections"]
