@@ -23,6 +23,6 @@ def copy_each(templates: Iterable[dict[str, V]]) -> list[dict[str, V]]:
     return list(map(dict.copy, templates))
 
 
-def set_each(dicts: list[dict[str, Any]], key: str, values: Iterable[Any]) -> None:
+def set_each(dicts: Iterable[dict[str, Any]], key: str, values: Iterable[Any]) -> None:
     """``dicts[i][key] = values[i]`` for every i (a key already present keeps its place)."""
     deque(map(setitem, dicts, repeat(key), values), maxlen=0)

@@ -80,14 +80,21 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
 
 
 def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
-    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors."""
+    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors.
+
+    Every row has length 2, and their concatenation is flat (``np.concatenate`` refuses rows of
+    different dimensions, and scalars), so every row has shape ``(2,)``. On a list of small
+    arrays this is faster than ``np.array(rows)``, and gives the same values.
+    """
     try:
-        stacked = np.array(rows)  # numpy checks that every row has the same shape
+        if set(map(len, rows)) != {2}:
+            return None
+        flat = np.concatenate(rows)
     except (TypeError, ValueError):
         return None
-    if stacked.shape != (len(rows), 2) or stacked.dtype.kind not in "fiub":
+    if flat.ndim != 1 or flat.dtype.kind not in "fiub":
         return None
-    return stacked.astype(np.float64, copy=False)
+    return flat.astype(np.float64, copy=False).reshape(len(rows), 2)
 
 
 def _is_numeric(row: Any) -> bool:

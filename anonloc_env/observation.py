@@ -28,6 +28,7 @@ history_interval     (K,)       time from history picture k to the next newer on
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import repeat
 from typing import Any
 
 import numpy as np
@@ -143,14 +144,12 @@ class ObservationBuilder:
         since = time - (self._picture_time if self._picture_time is not None else 0.0)
         since_arr = _frozen(np.array([since], np.float32))
         flag = self._flags[new_picture]
-        # One template per bumper value (the read-only constants [0.] and [1.], like
-        # ``new_picture``), holding every key in the documented order.
-        free = self._template(flag, since_arr)
-        bumped = free.copy()
-        bumped["bumper"] = self._flags[True]
-        templates = (free, bumped)
-        # A copy of a template per agent, then its own rows set in (see ``_dicts``).
-        obs = copy_each(map(templates.__getitem__, bumper.tolist()))
+        # A copy of one template per agent, then its own values set in (see ``_dicts``). The
+        # bumper arrays are the read-only constants [0.] and [1.], like ``new_picture``.
+        obs = copy_each(repeat(self._template(flag, since_arr), len(agents)))
+        bumped = np.flatnonzero(bumper).tolist()  # usually few robots
+        if bumped:
+            set_each(map(obs.__getitem__, bumped), "bumper", repeat(self._flags[True]))
         set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
         if self.history > 0:
             set_each(obs, "history_odometry", self._history_rows)
