@@ -147,7 +147,7 @@ class ObservationBuilder:
         # A copy of one template per agent, then its own values set in (see ``_dicts``). The
         # bumper arrays are the read-only constants [0.] and [1.], like ``new_picture``.
         obs = copy_each(repeat(self._template(flag, since_arr), len(agents)))
-        bumped = np.flatnonzero(bumper).tolist()  # usually few robots
+        bumped = bumper.nonzero()[0].tolist()  # usually few robots
         if bumped:
             set_each(map(obs.__getitem__, bumped), "bumper", repeat(self._flags[True]))
         set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
