@@ -2,9 +2,10 @@
 
 Every observation is a dict of fixed-shape float32 arrays (SB3's ``MultiInputPolicy`` takes it as
 is). The picture arrays are shared by all agents: one read-only array per picture, the same object
-in every agent's dict. Per-agent arrays are read-only row views of one ``(N, ...)`` array built
-per step. Arrays are never changed after they are handed out, so an observation kept by the
-caller stays valid.
+in every agent's dict. The odometry arrays are read-only row views of one ``(N, ...)`` array built
+per step. ``new_picture`` and ``bumper`` are one of two read-only constants, ``[0.]`` or
+``[1.]``, shared by every agent and step. Arrays are never changed after they are handed out, so
+an observation kept by the caller stays valid.
 
 Keys (D = max detections, K = history length):
 
