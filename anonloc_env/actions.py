@@ -66,7 +66,9 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
                     f"got {row!r}"
                 )
         raise AssertionError("unreachable: every row has shape (2,)")  # pragma: no cover
-    if not math.isfinite(stacked.sum()):  # a NaN or inf anywhere makes the sum non-finite
+    # A NaN or inf anywhere makes the sum of squares non-finite (huge finite values may too:
+    # the exact check below then passes). One BLAS call, cheaper than ``sum``'s Python wrapper.
+    if not math.isfinite(np.vdot(stacked, stacked)):
         finite = np.isfinite(stacked).all(axis=1)
         if not finite.all():
             bad = int(np.flatnonzero(~finite)[0])
@@ -78,14 +80,20 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
 
 
 def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
-    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors."""
+    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors.
+
+    Every row has length 2, and their concatenation is flat (``np.concatenate`` refuses rows of
+    different dimensions, and scalars), so every row has shape ``(2,)``. Casting to float64 is
+    refused for strings, complex numbers and objects ("same_kind" casting), as it should be. On a
+    list of small arrays this is faster than ``np.array(rows)``, and gives the same values.
+    """
     try:
-        stacked = np.array(rows)  # numpy checks that every row has the same shape
+        if set(map(len, rows)) != {2}:
+            return None
+        flat = np.concatenate(rows, dtype=np.float64)
     except (TypeError, ValueError):
         return None
-    if stacked.shape != (len(rows), 2) or stacked.dtype.kind not in "fiub":
-        return None
-    return stacked.astype(np.float64, copy=False)
+    return flat.reshape(len(rows), 2) if flat.ndim == 1 else None
 
 
 def _is_numeric(row: Any) -> bool:

@@ -120,10 +120,12 @@ class Camera:
     def project(self, xy: np.ndarray) -> np.ndarray:
         """Image coordinates ``(M, 2)`` of ground points ``xy`` ``(M, 2)`` (no noise)."""
         g = self.homography
-        w = g[2, 0] * xy[:, 0] + g[2, 1] * xy[:, 1] + g[2, 2]
-        u = (g[0, 0] * xy[:, 0] + g[0, 1] * xy[:, 1] + g[0, 2]) / w
-        v = (g[1, 0] * xy[:, 0] + g[1, 1] * xy[:, 1] + g[1, 2]) / w
-        return np.column_stack([u, v])
+        x, y = xy[:, 0], xy[:, 1]
+        w = g[2, 0] * x + g[2, 1] * y + g[2, 2]
+        uv = np.empty((len(xy), 2))
+        np.divide(g[0, 0] * x + g[0, 1] * y + g[0, 2], w, out=uv[:, 0])
+        np.divide(g[1, 0] * x + g[1, 1] * y + g[1, 2], w, out=uv[:, 1])
+        return uv
 
     def unproject(self, uv: np.ndarray) -> np.ndarray:
         """Ground points ``(M, 2)`` seen at image coordinates ``uv`` ``(M, 2)``."""
@@ -156,31 +158,34 @@ class Camera:
         outside the field of view, add false positives, shuffle."""
         cam = self.config.camera
         n = len(poses)
-        uv = self.project(poses[:, :2])
+        rows = np.empty((n, 3))  # (u, v, theta) of every robot, seen or not
+        rows[:, :2] = self.project(poses[:, :2])
+        u, v = rows[:, 0], rows[:, 1]
         u_min, v_min, u_max, v_max = self.field_of_view
-        seen = (uv[:, 0] >= u_min) & (uv[:, 0] <= u_max) & (uv[:, 1] >= v_min) & (uv[:, 1] <= v_max)
+        seen = (u >= u_min) & (u <= u_max) & (v >= v_min) & (v <= v_max)
         if cam.p_miss > 0.0:
             seen &= rng.random(n) >= cam.p_miss
         if cam.pixel_noise > 0.0:
-            uv = uv + rng.normal(0.0, cam.pixel_noise, (n, 2))
+            rows[:, :2] += rng.normal(0.0, cam.pixel_noise, (n, 2))
         if cam.orientation:
-            theta = self.image_heading(poses)
+            rows[:, 2] = self.image_heading(poses)
             if cam.orientation_noise_deg > 0.0:
-                theta = theta + rng.normal(0.0, math.radians(cam.orientation_noise_deg), n)
+                rows[:, 2] += rng.normal(0.0, math.radians(cam.orientation_noise_deg), n)
         else:
-            theta = np.zeros(n)
-        true_rows = np.column_stack([uv, theta])[seen]
+            rows[:, 2] = 0.0
+        true_rows = rows[seen]
+        n_true = len(true_rows)
         n_false = 0
         if cam.false_positives > 0.0:
-            n_false = min(int(rng.poisson(cam.false_positives)), self.capacity - len(true_rows))
-        false_rows = np.column_stack(
-            [
-                rng.uniform(u_min, u_max, n_false),
-                rng.uniform(v_min, v_max, n_false),
-                rng.uniform(-math.pi, math.pi, n_false) if cam.orientation else np.zeros(n_false),
-            ]
-        )
-        rows = np.concatenate([true_rows, false_rows])
+            n_false = min(int(rng.poisson(cam.false_positives)), self.capacity - n_true)
+        if n_false > 0:
+            false_rows = np.empty((n_false, 3))
+            false_rows[:, 0] = rng.uniform(u_min, u_max, n_false)
+            false_rows[:, 1] = rng.uniform(v_min, v_max, n_false)
+            false_rows[:, 2] = rng.uniform(-math.pi, math.pi, n_false) if cam.orientation else 0.0
+            rows = np.concatenate([true_rows, false_rows])
+        else:
+            rows = true_rows
         order = rng.permutation(len(rows))
         detections = rows[order]
         if cam.orientation:
@@ -189,7 +194,7 @@ class Camera:
         row_of = np.empty(len(rows), dtype=np.int64)
         row_of[order] = np.arange(len(rows))
         true_index = np.full(n, -1, dtype=np.int64)
-        true_index[seen] = row_of[: len(true_rows)]
+        true_index[seen] = row_of[:n_true]
         return Picture(
             detections=detections,
             true_index=true_index,

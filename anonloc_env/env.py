@@ -10,7 +10,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
-from anonloc_env.actions import stack_actions, to_commands
+from anonloc_env.actions import stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
@@ -141,6 +141,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         low = np.tile(np.array([0.0, 0.0, -np.pi], np.float32), (n, 1))
         self.state_space = spaces.Box(low, high, (n, 3), np.float32)
 
+        robot = self.config.robot
+        self._command_scale = np.array([robot.v_max, robot.omega_max])
         self._all_false = dict.fromkeys(self.possible_agents, False)
         self._all_true = dict.fromkeys(self.possible_agents, True)
         self._info_templates: list[dict[str, Any]] = []
@@ -241,8 +243,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             raise RuntimeError("step() called on a finished episode; call reset() first")
         world = self.world
         assert world is not None
-        stacked = stack_actions(actions, self.agents)
-        v, w = to_commands(stacked, self.config.robot)
+        # (N, 2) columns (v, w): to_commands with one multiplication instead of two.
+        commands = stack_actions(actions, self.agents)
+        commands *= self._command_scale
+        v, w = commands[:, 0], commands[:, 1]
         motion = world.step(v, w)
         self.odometry.integrate(motion, self.rng, v)
         self.steps += 1
@@ -303,10 +307,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
 
     def _infos(self) -> dict[str, dict[str, Any]]:
         # Fresh shallow copies: a wrapper that adds keys to one step's infos leaves the next alone.
-        return {
-            agent: info.copy()
-            for agent, info in zip(self.possible_agents, self._info_templates, strict=True)
-        }
+        copies = map(dict.copy, self._info_templates)  # a loop in C (see ``_dicts``)
+        return dict(zip(self.possible_agents, copies, strict=True))
 
     def state(self) -> np.ndarray:
         """Every robot's true pose ``(x, y, theta)`` as a ``(N, 3)`` float32 array (m, rad)."""

@@ -2,9 +2,10 @@
 
 Every observation is a dict of fixed-shape float32 arrays (SB3's ``MultiInputPolicy`` takes it as
 is). The picture arrays are shared by all agents: one read-only array per picture, the same object
-in every agent's dict. Per-agent arrays are read-only row views of one ``(N, ...)`` array built
-per step. Arrays are never changed after they are handed out, so an observation kept by the
-caller stays valid.
+in every agent's dict. The odometry arrays are read-only row views of one ``(N, ...)`` array built
+per step. ``new_picture`` and ``bumper`` are one of two read-only constants, ``[0.]`` or
+``[1.]``, shared by every agent and step. Arrays are never changed after they are handed out, so
+an observation kept by the caller stays valid.
 
 Keys (D = max detections, K = history length):
 
@@ -31,11 +32,13 @@ the frame at history picture k.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import repeat
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
+from anonloc_env._dicts import copy_each, set_each
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
@@ -66,6 +69,10 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
 def _frozen(array: np.ndarray) -> np.ndarray:
     array.flags.writeable = False
     return array
+
+
+#: Stands in a template for the per-agent arrays, which replace it before it is handed out.
+_PLACEHOLDER = _frozen(np.zeros(0, np.float32))
 
 
 class ObservationBuilder:
@@ -148,47 +155,37 @@ class ObservationBuilder:
         """Every agent's observation; ``agents`` are in robot order, ``odometry`` is ``(N, 3)``
         and ``bumper`` ``(N,)`` bool."""
         since = time - (self._picture_time if self._picture_time is not None else 0.0)
-        shared = self._shared
-        detections, mask = shared["detections"], shared["mask"]
-        flag = self._flags[new_picture]
-        interval = self._interval
         since_arr = _frozen(np.array([since], np.float32))
-        odo_rows = list(_frozen(odometry.astype(np.float32)))
-        bump_rows = list(_frozen(bumper.astype(np.float32).reshape(-1, 1)))
-        if self.history == 0:
-            return {
-                agent: {
-                    "detections": detections,
-                    "mask": mask,
-                    "new_picture": flag,
-                    "since_picture": since_arr,
-                    "odometry": odo,
-                    "bumper": bump,
-                    "odometry_between": between,
-                    "interval": interval,
-                }
-                for agent, odo, bump, between in zip(
-                    agents, odo_rows, bump_rows, self._between_rows, strict=True
-                )
-            }
-        hist_det, hist_mask = shared["history_detections"], shared["history_mask"]
-        hist_interval = shared["history_interval"]
-        return {
-            agent: {
-                "detections": detections,
-                "mask": mask,
-                "new_picture": flag,
-                "since_picture": since_arr,
-                "odometry": odo,
-                "bumper": bump,
-                "odometry_between": between,
-                "interval": interval,
-                "history_detections": hist_det,
-                "history_mask": hist_mask,
-                "history_odometry": hist_odo,
-                "history_interval": hist_interval,
-            }
-            for agent, odo, bump, between, hist_odo in zip(
-                agents, odo_rows, bump_rows, self._between_rows, self._history_rows, strict=True
-            )
+        flag = self._flags[new_picture]
+        # A copy of one template per agent, then its own values set in (see ``_dicts``). The
+        # bumper arrays are the read-only constants [0.] and [1.], like ``new_picture``.
+        obs = copy_each(repeat(self._template(flag, since_arr), len(agents)))
+        bumped = bumper.nonzero()[0].tolist()  # usually few robots
+        if bumped:
+            set_each(map(obs.__getitem__, bumped), "bumper", repeat(self._flags[True]))
+        set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
+        set_each(obs, "odometry_between", self._between_rows)  # rows changed at pictures only
+        if self.history > 0:
+            set_each(obs, "history_odometry", self._history_rows)
+        return dict(zip(agents, obs, strict=True))
+
+    def _template(self, flag: np.ndarray, since: np.ndarray) -> dict[str, np.ndarray]:
+        """An observation of a robot whose bumper is off, with the shared arrays, and a
+        placeholder where the per-agent rows go."""
+        shared = self._shared
+        template = {
+            "detections": shared["detections"],
+            "mask": shared["mask"],
+            "new_picture": flag,
+            "since_picture": since,
+            "odometry": _PLACEHOLDER,
+            "bumper": self._flags[False],
+            "odometry_between": _PLACEHOLDER,
+            "interval": self._interval,
         }
+        if self.history > 0:
+            template["history_detections"] = shared["history_detections"]
+            template["history_mask"] = shared["history_mask"]
+            template["history_odometry"] = _PLACEHOLDER
+            template["history_interval"] = shared["history_interval"]
+        return template

@@ -126,22 +126,31 @@ class Odometry:
             self.push[who] += bound
             self.push_sum[who] += bound[:, None] * lateral(self.since_picture[who, 2])
             self.contacts = True
-        forward, turned = motion.forward, motion.turned
-        if self.noise > 0.0:
-            factors = 1.0 + self.noise * rng.standard_normal((2, self.n))
-            forward = forward * factors[0]
-            turned = turned * factors[1]
-        step_ds = np.abs(forward).sum(axis=0) if len(forward) > 1 else np.abs(forward[0])
-        step_dth = turned.sum(axis=0) if len(turned) > 1 else turned[0]
-        self.path += step_ds
-        self.sum_ds2 += step_ds**2
-        self.sum_dth2 += step_dth**2
+        noisy = self.noise > 0.0
+        if noisy:
+            distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
         odo = self.since_picture
-        for ds, dth in zip(forward, turned, strict=True):
-            phi = odo[:, 2]
-            odo[:, 0] += ds * np.cos(phi)
-            odo[:, 1] += ds * np.sin(phi)
-            odo[:, 2] += dth
+        x, y, phi = odo[:, 0], odo[:, 1], odo[:, 2]  # column views, updated in place
+        step_ds = np.zeros(self.n)  # this control step's distance and turn, all sub-steps
+        step_dth = np.zeros(self.n)
+        for ds, dth in zip(motion.forward, motion.turned, strict=True):
+            if noisy:
+                ds = ds * distance_factor
+                dth = dth * turn_factor
+            step_ds += np.abs(ds)
+            step_dth += dth
+            dx = np.cos(phi)
+            dx *= ds
+            dy = np.sin(phi)
+            dy *= ds
+            x += dx
+            y += dy
+            phi += dth
+        self.path += step_ds
+        step_ds *= step_ds
+        self.sum_ds2 += step_ds
+        step_dth *= step_dth
+        self.sum_dth2 += step_dth
 
     def mark_picture(self) -> Interval:
         """Start a new interval at a picture; return the one just ended."""

@@ -8,9 +8,10 @@ Design notes:
 
 * Bodies are dynamic with infinite moment: collisions push robots (a robot can shove another) but
   never spin them; headings change only by the commanded turn rate.
-* Velocities are written and poses read for all bodies at once with ``pymunk.batch`` (no per-body
-  Python loop on the step path). ``cpSpaceEachBody`` visits the robots in the order they were added
-  and the space's static body last; the order is checked once when the world is built.
+* Velocities are written and poses read for all bodies at once with ``pymunk.batch``'s C
+  iterators (no per-body Python loop on the step path; see :class:`BodyBatch`).
+  ``cpSpaceEachBody`` visits the robots in the order they were added and the space's static body
+  last; the order is checked once when the world is built.
 * pymunk integrates positions before it resolves contacts, so a wall is enforced through the
   contact bias: overlap is halved at every sub-step, and a sub-step is short enough that a robot
   moves at most a tenth of its size. A robot held against a wall at full speed overlaps it by at
@@ -20,6 +21,7 @@ Design notes:
 from __future__ import annotations
 
 import math
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -36,6 +38,8 @@ _BUMP_TOLERANCE = 1e-9
 # Flag unions built once: combining enum flags costs microseconds per call.
 _SET_FIELDS = pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY
 _GET_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE
+#: One ``(x, y, theta)`` row: ``np.frombuffer`` with it gives ``(N, 3)`` arrays directly.
+_POSE = np.dtype((np.float64, 3))
 #: Fraction of the overlap of two shapes removed at every sub-step.
 _OVERLAP_CORRECTION = 0.5
 
@@ -44,15 +48,15 @@ class Motion(NamedTuple):
     """What the wheels did during one control step.
 
     Attributes:
-        forward: ``(substeps, N)`` distance each robot moved along its heading in each sub-step
+        forward: one ``(N,)`` array per sub-step: the distance each robot moved along its heading
             (m). Sideways motion (being pushed) is not seen by wheel encoders and is left out.
-        turned: ``(substeps, N)`` heading change in each sub-step (rad).
+        turned: one ``(N,)`` array per sub-step: each robot's heading change (rad).
         contact: ``(N,)`` True where a contact moved the robot off its commanded path (it was
             blocked by a wall or a robot, or pushed): what a bumper switch reports.
     """
 
-    forward: np.ndarray
-    turned: np.ndarray
+    forward: list[np.ndarray]
+    turned: list[np.ndarray]
     contact: np.ndarray
 
 
@@ -157,10 +161,12 @@ class World:
 
         # (N + 1, 3) velocities: robots first, the static body last (kept at rest).
         self._velocity = np.zeros((self.n + 1, 3), dtype=np.float64)
-        self._set_buffer = pmb.Buffer()
-        self._set_buffer.set_float_buf(self._velocity.reshape(-1))
-        self._get_buffer = pmb.Buffer()
-        self._bump_tolerance = _BUMP_TOLERANCE * robot.size
+        self.batch = BodyBatch(space, self._velocity, self.n)
+        # Views of the robots' rows and columns, made once; ufuncs write into them.
+        self._robot_velocity = self._velocity[: self.n]
+        self._vx, self._vy, self._w = self._robot_velocity.T
+        # A numpy scalar: comparing an array with a Python float costs a conversion per call.
+        self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
 
@@ -186,35 +192,130 @@ class World:
             )
 
     def step(self, v: np.ndarray, w: np.ndarray) -> Motion:
-        """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``."""
-        n, h = self.n, self.substep_dt
-        forward = np.empty((self.substeps, n))
-        turned = np.empty((self.substeps, n))
-        contact = np.zeros(n, dtype=bool)
-        vel = self._velocity
-        vel[:n, 2] = w
-        fields = _SET_FIELDS
-        tolerance = self._bump_tolerance
-        for k in range(self.substeps):
+        """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``.
+
+        The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
+        broadcasts than on a few more 1-D calls.
+        """
+        h = self.substep_dt
+        vx, vy = self._vx, self._vy
+        forward, turned = [], []
+        worst = None  # per robot, largest gap between its displacement and its command
+        np.copyto(self._w, w)
+        for _ in range(self.substeps):
             poses = self.poses
             cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            vel[:n, 0] = v * cos
-            vel[:n, 1] = v * sin
-            pmb.set_space_bodies(self.space, fields, self._set_buffer)
+            np.multiply(v, cos, out=vx)
+            np.multiply(v, sin, out=vy)
+            self.batch.write_velocities()
             self.space.step(h)
-            new = self._read_poses()
+            new = self.batch.read_poses()
             delta = new - poses
-            forward[k] = delta[:, 0] * cos + delta[:, 1] * sin
-            turned[k] = delta[:, 2]
-            # Free motion moves exactly by the commanded velocity; a contact pushes it off.
-            off = np.abs(delta[:, :2] - vel[:n, :2] * h)
-            contact |= off[:, 0] > tolerance
-            contact |= off[:, 1] > tolerance
+            # Wheel encoders see the displacement along the heading only.
+            along = delta[:, 0] * cos
+            along += delta[:, 1] * sin
+            forward.append(along)
+            turned.append(delta[:, 2])
+            # Free motion moves exactly by the commanded velocity; a contact pushes it off. The
+            # whole (N, 3) rows are contiguous: one call each, the heading column is ignored.
+            off = self._robot_velocity * h
+            np.subtract(delta, off, out=off)
+            np.abs(off, out=off)
+            if worst is None:
+                worst = np.maximum(off[:, 0], off[:, 1])
+            else:
+                np.maximum(worst, off[:, 0], out=worst)
+                np.maximum(worst, off[:, 1], out=worst)
             self.poses = new
-        return Motion(forward, turned, contact)
+        assert worst is not None  # substeps >= 1
+        return Motion(forward, turned, worst > self._bump_tolerance)
 
-    def _read_poses(self) -> np.ndarray:
-        buf = self._get_buffer
-        buf.clear()
-        pmb.get_space_bodies(self.space, _GET_FIELDS, buf)
-        return np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(-1, 3)[: self.n].copy()
+
+class BodyBatch:
+    """Velocities of every body in, poses of the robots out: one C call each.
+
+    ``pymunk.batch.set_space_bodies`` and ``get_space_bodies`` build a ``pmBatchedData`` struct
+    and read an enum at every call, which costs more than their C work for a hundred robots.
+    This class makes the same C calls (``cpSpaceEachBody`` with pymunk's batch iterators) with
+    structs built once. Those live in pymunk's private cffi module: if it is not as expected,
+    the public ``pymunk.batch`` functions are used instead (``fast`` says which), and the tests
+    check that both ways give the same poses.
+
+    Args:
+        space: the pymunk space.
+        velocity: ``(B, 3)`` float64 array, one ``(vx, vy, w)`` row per body of ``space`` in
+            ``cpSpaceEachBody`` order; :meth:`write_velocities` sends it to the bodies.
+        n: number of leading bodies (the robots) whose poses :meth:`read_poses` returns.
+        fast: try the direct C calls (False: always use ``pymunk.batch``).
+    """
+
+    def __init__(self, space: pymunk.Space, velocity: np.ndarray, n: int, fast: bool = True):
+        self.space = space
+        self.n = n
+        self._set_buffer = pmb.Buffer()
+        self._set_buffer.set_float_buf(velocity.reshape(-1))
+        self._get_buffer = pmb.Buffer()
+        self.fast = fast and self._prepare_direct_calls()
+
+    def _prepare_direct_calls(self) -> bool:
+        """Build the C call arguments once; False if pymunk's internals are not as expected."""
+        try:
+            from pymunk._chipmunk_cffi import ffi, lib
+
+            set_data = ffi.new("pmBatchedData *")
+            set_data.fields = _SET_FIELDS.value
+            set_data.floatArray = self._set_buffer._float_arr
+            set_data.intArray = self._set_buffer._int_arr
+            get_data = ffi.new("pmBatchedData *")
+            get_data.fields = _GET_FIELDS.value
+            get_data.floatArray = self._get_buffer._float_arr
+            get_data.intArray = self._get_buffer._int_arr
+            self._set_call = (
+                self.space._space,
+                ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched"),
+                set_data,
+            )
+            self._get_call = (
+                self.space._space,
+                ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched"),
+                get_data,
+            )
+            self._each_body = lib.cpSpaceEachBody
+            self._ffi = ffi
+        except Exception as error:  # any surprise in private internals: use the public path
+            warnings.warn(
+                f"anonloc: pymunk's batch internals differ ({error}); using pymunk.batch, "
+                "which is slower",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return False
+        return True
+
+    def write_velocities(self) -> None:
+        """Set every body's velocity and angular velocity from the ``velocity`` array."""
+        if not self.fast:
+            pmb.set_space_bodies(self.space, _SET_FIELDS, self._set_buffer)
+            return
+        # The iterator reads the array from index ``num`` on; restore it afterwards, as
+        # ``pymunk.batch.set_space_bodies`` does.
+        array = self._set_buffer._float_arr
+        size = array.num
+        array.num = 0
+        self._each_body(*self._set_call)
+        array.num = size
+
+    def read_poses(self) -> np.ndarray:
+        """A new ``(n, 3)`` array of the robots' poses ``(x, y, theta)``."""
+        buffer = self._get_buffer
+        if self.fast:
+            array = buffer._float_arr
+            array.num = 0  # the iterator appends from ``num`` on (buffer.clear())
+            self._each_body(*self._get_call)
+            data = self._ffi.buffer(array.arr, 3 * self.n * 8)
+        else:
+            buffer.clear()
+            pmb.get_space_bodies(self.space, _GET_FIELDS, buffer)
+            data = buffer.float_buf()
+        # A view of pymunk's buffer, which the next read overwrites: keep a copy.
+        return np.frombuffer(data, dtype=_POSE, count=self.n).copy()

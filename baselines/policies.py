@@ -150,7 +150,7 @@ class BaselinePolicy:
         is used as is, so a policy can share a team's i-th stream)."""
         self._seed = seed
         if isinstance(seed, np.random.SeedSequence):
-            seeds = [seed] + seed.spawn(len(self._teams) - 1)
+            seeds = [seed, *seed.spawn(len(self._teams) - 1)]
         else:
             seeds = np.random.SeedSequence(seed).spawn(len(self._teams))
         for team, s in zip(self._teams, seeds, strict=True):

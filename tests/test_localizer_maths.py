@@ -123,7 +123,7 @@ def test_eq_16_to_19_on_a_worked_example() -> None:
     assert math.acos(C / rho) - math.atan(B / A) == pytest.approx(ex["theta"])
     assert math.asin(D / rho) - math.atan(B / A) == pytest.approx(ex["theta"])
     # Both rows are solvable exactly when |q - p| = s |d| (C^2 + D^2 = rho^2).
-    assert C**2 + D**2 == pytest.approx(rho**2)
+    assert pytest.approx(rho**2) == C**2 + D**2
 
 
 @pytest.mark.parametrize("phi", [0.3, 1.2, 2.5, -0.7])

@@ -132,3 +132,33 @@ def test_since_picture_and_new_picture_flag() -> None:
             (obs["robot_0"]["new_picture"][0], round(float(obs["robot_0"]["since_picture"][0]), 6))
         )
     assert seen == [(0, 0.1), (0, 0.2), (1, 0.0), (0, 0.1), (0, 0.2), (1, 0.0)]
+
+
+@pytest.mark.parametrize("history", [0, 2])
+def test_keys_come_in_the_documented_order_and_flags_are_constants(history: int) -> None:
+    env = anonloc_env.parallel_env(
+        n_robots=3, arena_size=(1.5, 1.5), observation={"history": history}
+    )
+    order = [
+        "detections",
+        "mask",
+        "new_picture",
+        "since_picture",
+        "odometry",
+        "bumper",
+        "odometry_between",
+        "interval",
+    ]
+    if history:
+        order += ["history_detections", "history_mask", "history_odometry", "history_interval"]
+    obs, _ = env.reset(seed=0)
+    bumps = 0.0
+    for _ in range(30):  # crowded: some bumpers fire
+        for agent in env.agents:
+            assert list(obs[agent]) == order
+            for key in ("bumper", "new_picture"):
+                assert not obs[agent][key].flags.writeable
+                assert obs[agent][key].tolist() in ([0.0], [1.0])
+            bumps += obs[agent]["bumper"][0]
+        obs, *_ = env.step(constant_actions(env, (1.0, 0.2)))
+    assert bumps > 0
