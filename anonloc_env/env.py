@@ -158,7 +158,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
 
     def _new_odometry(self) -> Odometry:
         robot = self.config.robot
-        return Odometry(self.config.n_robots, robot.odometry_noise, robot.v_max, self.config.dt)
+        statistics = bool(getattr(self.reward_fn, "needs_statistics", True))
+        return Odometry(
+            self.config.n_robots, robot.odometry_noise, robot.v_max, self.config.dt, statistics
+        )
 
     # -- PettingZoo API -------------------------------------------------------------------------
 

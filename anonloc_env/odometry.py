@@ -100,11 +100,16 @@ class Odometry:
             turn (``RobotConfig.odometry_noise``).
     """
 
-    def __init__(self, n: int, noise: float, v_max: float = 0.0, dt: float = 0.0) -> None:
+    def __init__(
+        self, n: int, noise: float, v_max: float = 0.0, dt: float = 0.0, statistics: bool = True
+    ) -> None:
         self.n = n
         self.noise = noise
         self.v_max = v_max
         self.dt = dt
+        self.statistics = statistics
+        """Whether to keep the per-interval statistics (path, squared increments, contacts) that
+        the likelihood model needs; without them intervals report the straight distance."""
         self.since_picture = np.zeros((n, 3))
         """``(N, 3)`` own-frame ``(dx, dy, dphi)`` since the latest picture (m, m, rad)."""
         self._start_interval()
@@ -120,7 +125,8 @@ class Odometry:
     def integrate(self, motion: Motion, rng: np.random.Generator, speed: np.ndarray) -> None:
         """Add one control step of wheel motion (with noise drawn from ``rng`` if any);
         ``speed`` ``(N,)`` is the commanded forward speed (m/s), for the contact bound."""
-        if motion.contact.any():
+        stats = self.statistics
+        if stats and motion.contact.any():
             who = np.flatnonzero(motion.contact)
             bound = push_bound(speed[who], self.v_max, self.dt)
             self.push[who] += bound
@@ -131,14 +137,16 @@ class Odometry:
             distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
         odo = self.since_picture
         x, y, phi = odo[:, 0], odo[:, 1], odo[:, 2]  # column views, updated in place
-        step_ds = np.zeros(self.n)  # this control step's distance and turn, all sub-steps
-        step_dth = np.zeros(self.n)
+        if stats:
+            step_ds = np.zeros(self.n)  # this control step's distance and turn, all sub-steps
+            step_dth = np.zeros(self.n)
         for ds, dth in zip(motion.forward, motion.turned, strict=True):
             if noisy:
                 ds = ds * distance_factor
                 dth = dth * turn_factor
-            step_ds += np.abs(ds)
-            step_dth += dth
+            if stats:
+                step_ds += np.abs(ds)
+                step_dth += dth
             dx = np.cos(phi)
             dx *= ds
             dy = np.sin(phi)
@@ -146,15 +154,19 @@ class Odometry:
             x += dx
             y += dy
             phi += dth
-        self.path += step_ds
-        step_ds *= step_ds
-        self.sum_ds2 += step_ds
-        step_dth *= step_dth
-        self.sum_dth2 += step_dth
+        if stats:
+            self.path += step_ds
+            step_ds *= step_ds
+            self.sum_ds2 += step_ds
+            step_dth *= step_dth
+            self.sum_dth2 += step_dth
 
     def mark_picture(self) -> Interval:
         """Start a new interval at a picture; return the one just ended."""
         ended = self.since_picture
+        if not self.statistics:
+            self.since_picture = np.zeros((self.n, 3))
+            return Interval.exact(ended[:, :2], ended[:, 2])
         interval = Interval(
             d=ended[:, :2].copy(),
             dphi=ended[:, 2].copy(),

@@ -53,7 +53,12 @@ class StepContext:
 
 @runtime_checkable
 class RewardFunction(Protocol):
-    """Interface of a reward function."""
+    """Interface of a reward function.
+
+    A reward function may also set ``needs_statistics = False`` when it does not use the
+    per-interval statistics of :class:`anonloc_env.odometry.Interval` (path, squared
+    increments, contacts): the env then skips keeping them, which makes ``step`` cheaper.
+    """
 
     def reset(
         self, config: EnvConfig, rng: np.random.Generator, picture: Picture | None = None
@@ -81,6 +86,8 @@ def energy(config: EnvConfig, v: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 class EnergyCost:
     """Reward ``-energy_weight * energy`` per step (see :func:`energy`)."""
+
+    needs_statistics = False
 
     def reset(
         self, config: EnvConfig, rng: np.random.Generator, picture: Picture | None = None

@@ -46,6 +46,8 @@ class LimitLoop:
         self.picture = np.zeros((n, 3), np.float32)
         self.mask = np.ones(n, np.float32)
         self.flag = np.zeros(1, np.float32)
+        self.interval = np.zeros(1, np.float32)
+        self.between_rows = list(np.zeros((n, 3), np.float32))
         self.steps = 0
 
     def step(self, commands: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
@@ -67,10 +69,11 @@ class LimitLoop:
         self.steps += 1
         if self.steps % self.steps_per_picture == 0:
             self.picture = self.poses[self.rng.permutation(n)].astype(np.float32)
+            self.between_rows = list(self.poses.astype(np.float32))  # changes at pictures only
         odometry = self.poses.astype(np.float32)
         bumper = np.zeros((n, 1), np.float32)
         since = np.zeros(1, np.float32)
-        picture, mask, flag = self.picture, self.mask, self.flag
+        picture, mask, flag, interval = self.picture, self.mask, self.flag, self.interval
         return {
             agent: {
                 "detections": picture,
@@ -79,6 +82,10 @@ class LimitLoop:
                 "since_picture": since,
                 "odometry": odo,
                 "bumper": bump,
+                "odometry_between": between,
+                "interval": interval,
             }
-            for agent, odo, bump in zip(self.agents, list(odometry), list(bumper), strict=True)
+            for agent, odo, bump, between in zip(
+                self.agents, list(odometry), list(bumper), self.between_rows, strict=True
+            )
         }
