@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.geometry import chain_triples
+from baselines.geometry import chain_triples, min_per_column
 
 #: The faithful search refuses pictures so large that n^3 triples would not fit in memory.
 MAX_FAITHFUL_TRIPLES = 20_000_000
@@ -87,5 +87,4 @@ def residuals(
     sigma = np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), ratio.shape)[:, None]
     var = sigma**2 * (1.0 + (1.0 + k) ** 2 + k**2)
     chi2 = (err**2).sum(axis=-1) / var  # (R, T)
-    np.minimum.at(out, (np.arange(len(ratio))[:, None], c[None, :]), chi2)
-    return out
+    return min_per_column(chi2, c, len(p2))

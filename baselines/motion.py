@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from baselines.geometry import chain_triples, pairs_within, rotate, wrap_angle
+from baselines.geometry import chain_triples, min_per_column, pairs_within, rotate, wrap_angle
 
 MAX_FAITHFUL_TRIPLES = 20_000_000
 
@@ -99,8 +99,7 @@ def residuals(
         chi2 = (err**2).sum(-1) / (var + var_heading[:, None]) + turn**2 / (
             2.0 * orientation_noise**2
         )
-    np.minimum.at(out, (np.arange(n_robots)[:, None], j[None, :]), chi2)
-    return out
+    return min_per_column(chi2, j, len(second))
 
 
 def _predict_second_leg(
@@ -156,8 +155,7 @@ def scale_free_residuals(
         var = sigma**2 * (2.0 + 2.0 * (r2 / r1) ** 2 + 2.0 * r2 / np.maximum(r1, 1e-12))
         chi2 = ((leg2 - pred) ** 2).sum(-1) / var
     chi2 = np.where(np.isfinite(chi2), chi2, np.inf)
-    np.minimum.at(out, (np.arange(n_robots)[:, None], c[None, :]), chi2)
-    return out
+    return min_per_column(chi2, c, len(p2))
 
 
 def faithful_scale_free_deviation(
