@@ -1,7 +1,7 @@
 """Localizers: turn pictures and own motion into "which row is me", for R robots at once.
 
 Each localizer wraps the pure functions of :mod:`baselines.angular`, :mod:`baselines.linear`,
-:mod:`baselines.motion` or the Bayesian :class:`anonloc_env.identify.Identifier`. It is told about
+:mod:`baselines.motion` or the Bayesian ``anonloc_env.identify.Identifier``. It is told about
 every picture (with the robots' own motion since the previous one) and keeps, per robot, an
 estimate (a row of the newest picture, or -1 while undecided) and a belief over the rows.
 
@@ -215,10 +215,11 @@ class Motion3Localizer(Localizer):
 
 
 class BayesLocalizer(Localizer):
-    """The Bayesian identifier (:mod:`anonloc_env.identify`) with a decision threshold.
+    """The Bayesian identifier (``anonloc_env.identify``) with a decision threshold.
 
     Args:
-        config, n: as for every localizer.
+        config: what the robots know of the task.
+        n: number of robots R.
         mode: only ``"corrected"``.
         threshold: belief above which a robot decides (default 0.99).
         scale_known: False estimates the camera scale per hypothesis.

@@ -30,7 +30,7 @@ class PictureRecord:
         true_index: the row that is itself (-1 if it is not in the picture).
         correct: ``estimate == true_index`` and decided.
         belief_true: the belief the robot gave its true row (or to "not in the picture").
-        energy: wheel travel since reset (m), see :func:`anonloc_env.rewards.energy`.
+        energy: wheel travel since reset (m), see ``anonloc_env.rewards.energy``.
     """
 
     localizer: str
