@@ -2,7 +2,7 @@
 
 A localizer sees, at every step, what its robot observes and nothing else. :class:`MotionLog`
 turns the per-step own odometry into what the localizers need at each picture: an
-:class:`anonloc_env.odometry.Interval` (displacement, heading change, distance rolled, the squares
+``anonloc_env.odometry.Interval`` (displacement, heading change, distance rolled, the squares
 of the per-step increments for the noise model, and how far contacts may have pushed it).
 """
 
