@@ -84,18 +84,18 @@ def parallel_env(
     return AnonLocEnv(config, render_mode=render_mode, reward_fn=reward_fn, detector=detector)
 
 
-def raw_env(**kwargs: Any) -> AnonLocEnv:
+def raw_env(preset: str | None = None, **kwargs: Any) -> AnonLocEnv:
     """The unwrapped parallel environment (the same as :func:`parallel_env`)."""
-    return parallel_env(**kwargs)
+    return parallel_env(preset, **kwargs)
 
 
-def env(**kwargs: Any) -> pettingzoo.AECEnv:
+def env(preset: str | None = None, **kwargs: Any) -> pettingzoo.AECEnv:
     """The environment in PettingZoo's AEC API (``parallel_to_aec`` with order enforcing).
 
     Takes the same arguments as :func:`parallel_env`. The AEC form steps physics once after every
     agent has acted, so time runs the same in both forms.
     """
-    return parallel_to_aec(parallel_env(**kwargs))
+    return parallel_to_aec(parallel_env(preset, **kwargs))
 
 
 def _register() -> None:

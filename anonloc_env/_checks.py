@@ -31,10 +31,11 @@ def check_number(
         integer: require an ``int`` (``bool`` is refused).
     """
     kind = "an integer" if integer else "a number"
+    high_open = high_open or high == math.inf  # infinity itself is never a valid value
     if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
         raise TypeError(f"{name} must be {kind}, got {value!r} ({type(value).__name__})")
-    if not integer and not math.isfinite(value) and not (value == math.inf and high == math.inf):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+    if not integer and not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
     too_low = value <= low if low_open else value < low
     too_high = value >= high if high_open else value > high
     if too_low or too_high:

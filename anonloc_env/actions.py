@@ -62,10 +62,9 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
         for agent, row in zip(agents, rows, strict=True):
             if not _is_numeric(row) or np.shape(row) != (2,):
                 raise ValueError(
-                    f"action of {agent!r} must have shape (2,) = (v, w) scaled to [-1, 1], "
-                    f"got {row!r}"
+                    f"action of {agent!r} must be 2 numbers (v, w) scaled to [-1, 1], got {row!r}"
                 )
-        raise AssertionError("unreachable: every row has shape (2,)")  # pragma: no cover
+        raise ValueError(f"actions must be 2 numbers per agent, got {actions!r}")
     # A NaN or inf anywhere makes the sum of squares non-finite (huge finite values may too:
     # the exact check below then passes). One BLAS call, cheaper than ``sum``'s Python wrapper.
     if not math.isfinite(np.vdot(stacked, stacked)):
@@ -97,8 +96,8 @@ def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
 
 
 def _is_numeric(row: Any) -> bool:
+    """Whether ``row`` holds numbers (not strings, None or other objects)."""
     try:
-        np.asarray(row, dtype=np.float64)
+        return np.asarray(row).dtype.kind in "fiub"
     except (ValueError, TypeError):
         return False
-    return True

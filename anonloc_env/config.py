@@ -90,7 +90,7 @@ class CameraConfig:
         orientation_noise_deg: standard deviation of the Gaussian noise on ``theta`` (deg), in
             [0, 180).
         p_miss: probability that a robot is missing from a picture, in [0, 1).
-        false_positives: mean number of false detections per picture (Poisson), in [0, inf).
+        false_positives: mean number of false detections per picture (Poisson), in [0, 1000].
             They are uniform over the field of view, with a uniform ``theta``.
     """
 

@@ -16,6 +16,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space
 from anonloc_env.odometry import Interval, Odometry
+from anonloc_env.presets import PRESETS
 from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
 from anonloc_env.schedule import PictureSchedule
 from anonloc_env.world import World, check_poses, random_poses
@@ -105,7 +106,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         detector: DetectionSource | None = None,
     ) -> None:
         EzPickle.__init__(self, config, render_mode, reward_fn, detector)
-        self.config = config if config is not None else EnvConfig()
+        self.config = config if config is not None else PRESETS["default"]
         if not isinstance(self.config, EnvConfig):
             raise TypeError(f"config must be an EnvConfig, got {type(self.config).__name__}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

@@ -36,7 +36,8 @@ class StepContext:
         time: time at the end of the step (s since reset).
         v: ``(N,)`` forward speed commands held during the step (m/s), after clipping.
         w: ``(N,)`` turn rate commands (rad/s), after clipping.
-        contact: ``(N,)`` True where a robot touched a wall or another robot.
+        contact: ``(N,)`` True where a contact pushed or blocked a robot during the step (its
+            bumper fired).
         picture: the picture taken at the end of this step, or None.
         interval: each robot's own motion between the previous picture and ``picture`` (see
             :class:`anonloc_env.odometry.Interval`), or None if no picture came before it.

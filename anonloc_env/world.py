@@ -29,6 +29,7 @@ import pymunk
 import pymunk.batch as pmb
 
 from anonloc_env.config import EnvConfig, placement_spacing
+from anonloc_env.neighbours import pairs_within
 
 #: Fraction of the robot size a robot (corner included) may move in one physics sub-step.
 _MAX_MOVE_PER_SUBSTEP = 0.1
@@ -104,6 +105,14 @@ def check_poses(config: EnvConfig, poses: object) -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise ValueError("options['poses'] must be finite")
+    i, j, _ = pairs_within(arr[:, :2], arr[:, :2], config.robot.size)
+    clash = i < j
+    if clash.any():
+        a, b = int(i[clash][0]), int(j[clash][0])
+        raise ValueError(
+            f"options['poses'][{a}] and [{b}] overlap: robots' centres must be at least the "
+            f"robot size ({config.robot.size:g} m) apart"
+        )
     margin = config.robot.size / 2.0
     width, height = config.arena_size
     outside = (
@@ -113,9 +122,9 @@ def check_poses(config: EnvConfig, poses: object) -> np.ndarray:
         | (arr[:, 1] > height - margin)
     )
     if outside.any():
-        i = int(np.flatnonzero(outside)[0])
+        k = int(np.flatnonzero(outside)[0])
         raise ValueError(
-            f"options['poses'][{i}] = {arr[i].tolist()} puts the robot outside the arena: x must "
+            f"options['poses'][{k}] = {arr[k].tolist()} puts the robot outside the arena: x must "
             f"be in [{margin:g}, {width - margin:g}] and y in [{margin:g}, {height - margin:g}] m"
         )
     return arr.copy()

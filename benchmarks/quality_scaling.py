@@ -75,8 +75,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="a quarter of the episodes")
     args = parser.parse_args(argv)
     print(f"orientation detected: {args.orientation}")
-    print("| N | robots | right at 4th | at 6th | at 8th | motion (peer) at 4th |"
-          " first decision (picture) | wrong at >= 0.99 | wall (s) |")
+    print(
+        "| N | robots | right at 4th | at 6th | at 8th | motion (peer) at 4th |"
+        " first decision (picture) | wrong at >= 0.99 | wall (s) |"
+    )
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for n, episodes in EPISODES.items():
         start = time.perf_counter()

@@ -90,5 +90,7 @@ def test_reset_option_validation() -> None:
         env.reset(seed=0, options={"poses": [[1.0, 1.0, 0.0]]})
     with pytest.raises(ValueError, match="outside the arena"):
         env.reset(seed=0, options={"poses": [[1.0, 1.0, 0.0], [9.0, 1.0, 0.0]]})
+    with pytest.raises(ValueError, match=r"\[0\] and \[1\] overlap"):
+        env.reset(seed=0, options={"poses": [[1.0, 1.0, 0.0], [1.1, 1.0, 0.0]]})
     with pytest.warns(UserWarning, match="valid options: \\['poses'\\]"):
         env.reset(seed=0, options={"pose": 1})
