@@ -209,6 +209,95 @@ class _Tracks:
 _FIELDS = ("slot", "row", "pos", "pos_var", "theta", "p_tt", "log_s", "p_ts", "p_ss", "logw")
 
 
+@dataclass
+class _Geometry:
+    """Per candidate (parent track, new row): the displacement and its noise."""
+
+    d: np.ndarray  # (K, 2) own displacement of the parent's robot (m)
+    rho0: np.ndarray  # |d|
+    dphi: np.ndarray  # own heading change
+    var_dphi: np.ndarray  # its variance
+    delta: np.ndarray  # (K, 2) image displacement from the parent's position to the row
+    r: np.ndarray  # |delta|
+    ang_delta: np.ndarray  # direction of delta
+    ang_d: np.ndarray  # direction of d
+    s: np.ndarray  # scale the parent assumes (its estimate, or the largest possible)
+    push_cov: np.ndarray  # (K, 2, 2) unseen contact pushes (m^2, robot frame)
+    base_var: np.ndarray  # isotropic variance per component without the pushes
+    iso_var: np.ndarray  # with the pushes spread evenly
+    still: np.ndarray  # too little motion to learn the heading from
+
+    @classmethod
+    def of(
+        cls, parent: _Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
+    ) -> _Geometry:
+        slot = parent.slot
+        d = interval.d[slot]
+        rho0 = np.hypot(d[:, 0], d[:, 1])
+        var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
+        delta = z[:, :2] - parent.pos
+        scale_known = np.isfinite(parent.log_s)
+        s_high = model.scale_bounds[1]
+        s = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
+        push_cov = interval.push_covariance()[slot]
+        base_var = (
+            pix_var + parent.pos_var + s**2 * var_d_all[slot] + (model.scale_spread * s * rho0) ** 2
+        )
+        iso_var = base_var + s**2 * 0.5 * (push_cov[:, 0, 0] + push_cov[:, 1, 1])
+        return cls(
+            d=d,
+            rho0=rho0,
+            dphi=interval.dphi[slot],
+            var_dphi=var_dphi_all[slot],
+            delta=delta,
+            r=np.hypot(delta[:, 0], delta[:, 1]),
+            ang_delta=np.arctan2(delta[:, 1], delta[:, 0]),
+            ang_d=np.arctan2(d[:, 1], d[:, 0]),
+            s=s,
+            push_cov=push_cov,
+            base_var=base_var,
+            iso_var=iso_var,
+            still=s_high * rho0 < 2.0 * np.sqrt(iso_var),
+        )
+
+    def standing_loglik(self, which: np.ndarray) -> np.ndarray:
+        """Log density of the displacement of a robot that did not move, for ``which``."""
+        var = self.iso_var[which]
+        return -LOG_2PI - np.log(var) - self.r[which] ** 2 / (2 * var)
+
+
+@dataclass
+class _Child:
+    """The new tracks' log-likelihoods and states, filled case by case."""
+
+    loglik: np.ndarray
+    theta: np.ndarray
+    p_tt: np.ndarray
+    log_s: np.ndarray
+    p_ts: np.ndarray
+    p_ss: np.ndarray
+
+    @classmethod
+    def start(cls, parent: _Tracks) -> _Child:
+        n = len(parent)
+        return cls(
+            loglik=np.full(n, -np.inf),
+            theta=np.full(n, np.nan),
+            p_tt=np.full(n, np.inf),
+            log_s=parent.log_s.copy(),
+            p_ts=parent.p_ts.copy(),
+            p_ss=parent.p_ss.copy(),
+        )
+
+    def heading_from_displacement(self, which: np.ndarray, geo: _Geometry) -> None:
+        """A first heading for ``which``: the image direction of the move minus that of the
+        robot's own, turned by its own turn; uncertain by the noise over the length."""
+        self.theta[which] = geo.ang_delta[which] - geo.ang_d[which] + geo.dphi[which]
+        self.p_tt[which] = (
+            geo.iso_var[which] / np.maximum(geo.r[which], 1e-12) ** 2 + geo.var_dphi[which]
+        )
+
+
 class Identifier:
     """Multi-hypothesis "which row is me" filter for R robots at once.
 
@@ -437,114 +526,49 @@ class Identifier:
         model = self.model
         keep = self._plausible(parent, rows[cand], interval, pix_var)
         parent, cand = parent.take(keep), cand[keep]
-        n_child = len(cand)
-        if n_child == 0:
+        if len(cand) == 0:
             return _Tracks.empty()
-        slot = parent.slot
-        d = interval.d[slot]
-        rho0 = np.hypot(*d.T)
-        dphi = interval.dphi[slot]
-        var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
-        var_d, var_dphi = var_d_all[slot], var_dphi_all[slot]
         z = rows[cand]
-        delta = z[:, :2] - parent.pos
-        r = np.hypot(*delta.T)
+        geo = _Geometry.of(parent, z, interval, model, pix_var)
+        child = _Child.start(parent)
         heading_known = np.isfinite(parent.theta)
         scale_known = np.isfinite(parent.log_s)
         s_low, s_high = model.scale_bounds
-        s_now = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
-        push_cov = interval.push_covariance()[slot]
-        push_iso = 0.5 * (push_cov[:, 0, 0] + push_cov[:, 1, 1])
-        base_var = (
-            pix_var + parent.pos_var + s_now**2 * var_d + (model.scale_spread * s_now * rho0) ** 2
-        )
-
-        iso_var = base_var + s_now**2 * push_iso  # contacts, spread evenly (no heading yet)
-
-        loglik = np.full(n_child, -np.inf)
-        theta = np.full(n_child, np.nan)
-        p_tt = np.full(n_child, np.inf)
-        log_s = parent.log_s.copy()
-        p_ts = parent.p_ts.copy()
-        p_ss = parent.p_ss.copy()
-        ang_delta = np.arctan2(delta[:, 1], delta[:, 0])
-        ang_d = np.arctan2(d[:, 1], d[:, 0])
-        still = s_high * rho0 < 2.0 * np.sqrt(iso_var)  # too little motion to learn from
-
         # A. heading unknown, scale known: the ring.
         a = ~heading_known & scale_known
-        loglik[a] = ring_loglik(r[a], s_now[a] * rho0[a], iso_var[a])
-        learn = a & ~still & (r > 0)
-        theta[learn] = ang_delta[learn] - ang_d[learn] + dphi[learn]
-        p_tt[learn] = iso_var[learn] / np.maximum(r[learn], 1e-12) ** 2 + var_dphi[learn]
-
+        child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
+        learn = a & ~geo.still & (geo.r > 0)
+        child.heading_from_displacement(learn, geo)
         # C. heading and scale unknown: any length in the scale range, log-uniform scale.
         c = ~heading_known & ~scale_known
-        self._scale_free(c, still, r, rho0, iso_var, loglik, s_low, s_high)
-        learn_c = c & ~still & (r > 0)
-        theta[learn_c] = ang_delta[learn_c] - ang_d[learn_c] + dphi[learn_c]
-        p_tt[learn_c] = iso_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2 + var_dphi[learn_c]
-        log_s[learn_c] = np.log(r[learn_c] / rho0[learn_c])
-        p_ss[learn_c] = iso_var[learn_c] / np.maximum(r[learn_c], 1e-12) ** 2
-        p_ts[learn_c] = 0.0
-
+        self._scale_free(c, geo, child, s_low, s_high)
+        learn = c & ~geo.still & (geo.r > 0)
+        child.heading_from_displacement(learn, geo)
+        child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
+        child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
+        child.p_ts[learn] = 0.0
         # D. heading known, scale unknown: the direction is tested, the length sets the scale.
         dd = heading_known & ~scale_known
         if dd.any():
-            self._direction_only(
-                dd,
-                still,
-                r,
-                rho0,
-                iso_var,
-                ang_delta,
-                ang_d,
-                parent,
-                dphi,
-                var_dphi,
-                loglik,
-                theta,
-                p_tt,
-                log_s,
-                p_ts,
-                p_ss,
-                s_low,
-                s_high,
-            )
-
+            self._direction_only(dd, geo, parent, child, s_low, s_high)
         # B. heading known, scale known or estimated: extended Kalman filter on (theta, log s).
         b = heading_known & scale_known
         if b.any():
-            self._kalman(
-                b,
-                delta,
-                d,
-                parent,
-                base_var,
-                push_cov * (s_now**2)[:, None, None],
-                dphi,
-                var_dphi,
-                loglik,
-                theta,
-                p_tt,
-                log_s,
-                p_ts,
-                p_ss,
-            )
+            self._kalman(b, geo, parent, child)
         # The detected heading, if any, is one more measurement.
         if model.orientation:
-            self._orientation(z[:, 2], theta, p_tt, loglik)
-        logw = parent.logw + self.log_pd + loglik - log_bg
+            self._orientation(z[:, 2], child.theta, child.p_tt, child.loglik)
+        logw = parent.logw + self.log_pd + child.loglik - log_bg
         return _Tracks(
-            slot=slot,
+            slot=parent.slot,
             row=cand,
             pos=z[:, :2].copy(),
-            pos_var=np.full(n_child, pix_var),
-            theta=wrap_angle(theta),
-            p_tt=p_tt,
-            log_s=log_s,
-            p_ts=p_ts,
-            p_ss=p_ss,
+            pos_var=np.full(len(cand), pix_var),
+            theta=wrap_angle(child.theta),
+            p_tt=child.p_tt,
+            log_s=child.log_s,
+            p_ts=child.p_ts,
+            p_ss=child.p_ss,
             logw=logw,
         ).take(np.flatnonzero(np.isfinite(logw)))
 
@@ -590,113 +614,88 @@ class Identifier:
 
     @staticmethod
     def _scale_free(
-        mask: np.ndarray,
-        still: np.ndarray,
-        r: np.ndarray,
-        rho0: np.ndarray,
-        var: np.ndarray,
-        loglik: np.ndarray,
-        s_low: float,
-        s_high: float,
+        mask: np.ndarray, geo: _Geometry, child: _Child, s_low: float, s_high: float
     ) -> None:
-        moving = mask & ~still
+        moving = mask & ~geo.still
         width = math.log(s_high / s_low) if s_high > s_low else 1e-9
-        rr = np.maximum(r[moving], 1e-12)
-        inside = (rr >= s_low * rho0[moving] - GATE_SIGMAS * np.sqrt(var[moving])) & (
-            rr <= s_high * rho0[moving] + GATE_SIGMAS * np.sqrt(var[moving])
+        rr = np.maximum(geo.r[moving], 1e-12)
+        sigma = np.sqrt(geo.iso_var[moving])
+        rho0 = geo.rho0[moving]
+        inside = (rr >= s_low * rho0 - GATE_SIGMAS * sigma) & (
+            rr <= s_high * rho0 + GATE_SIGMAS * sigma
         )
         # Density of a 2-D displacement of length r in a uniform direction, r log-uniform.
-        loglik[moving] = np.where(inside, -LOG_2PI - 2.0 * np.log(rr) - math.log(width), -np.inf)
-        standing = mask & still
-        loglik[standing] = -LOG_2PI - np.log(var[standing]) - r[standing] ** 2 / (2 * var[standing])
+        child.loglik[moving] = np.where(
+            inside, -LOG_2PI - 2.0 * np.log(rr) - math.log(width), -np.inf
+        )
+        standing = mask & geo.still
+        child.loglik[standing] = geo.standing_loglik(standing)
 
     @staticmethod
     def _direction_only(
         mask: np.ndarray,
-        still: np.ndarray,
-        r: np.ndarray,
-        rho0: np.ndarray,
-        var: np.ndarray,
-        ang_delta: np.ndarray,
-        ang_d: np.ndarray,
+        geo: _Geometry,
         parent: _Tracks,
-        dphi: np.ndarray,
-        var_dphi: np.ndarray,
-        loglik: np.ndarray,
-        theta: np.ndarray,
-        p_tt: np.ndarray,
-        log_s: np.ndarray,
-        p_ts: np.ndarray,
-        p_ss: np.ndarray,
+        child: _Child,
         s_low: float,
         s_high: float,
     ) -> None:
-        moving = np.flatnonzero(mask & ~still)
-        rr = np.maximum(r[moving], 1e-12)
+        moving = np.flatnonzero(mask & ~geo.still)
+        rr = np.maximum(geo.r[moving], 1e-12)
+        var = geo.iso_var[moving]
+        rho0 = geo.rho0[moving]
         width = math.log(s_high / s_low) if s_high > s_low else 1e-9
-        predicted = parent.theta[moving] + ang_d[moving]
-        err = wrap_angle(ang_delta[moving] - predicted)
-        var_ang = parent.p_tt[moving] + var[moving] / rr**2
-        inside = (rr >= s_low * rho0[moving] - GATE_SIGMAS * np.sqrt(var[moving])) & (
-            rr <= s_high * rho0[moving] + GATE_SIGMAS * np.sqrt(var[moving])
+        predicted = parent.theta[moving] + geo.ang_d[moving]
+        err = wrap_angle(geo.ang_delta[moving] - predicted)
+        var_ang = parent.p_tt[moving] + var / rr**2
+        sigma = np.sqrt(var)
+        inside = (rr >= s_low * rho0 - GATE_SIGMAS * sigma) & (
+            rr <= s_high * rho0 + GATE_SIGMAS * sigma
         )
         # Angle density times the log-uniform length density, per unit area (the 1/r Jacobian).
         angle_ll = -0.5 * (math.log(2 * math.pi) + np.log(var_ang) + err**2 / var_ang)
-        loglik[moving] = np.where(
-            inside, angle_ll - np.log(rr) - np.log(rr) - math.log(width), -np.inf
+        child.loglik[moving] = np.where(
+            inside, angle_ll - 2.0 * np.log(rr) - math.log(width), -np.inf
         )
         gain = parent.p_tt[moving] / var_ang
-        theta[moving] = parent.theta[moving] + gain * err + dphi[moving]
-        p_tt[moving] = parent.p_tt[moving] * (1 - gain) + var_dphi[moving]
-        log_s[moving] = np.log(rr / rho0[moving])
-        p_ss[moving] = var[moving] / rr**2
-        p_ts[moving] = 0.0
-        standing = np.flatnonzero(mask & still)
-        loglik[standing] = -LOG_2PI - np.log(var[standing]) - r[standing] ** 2 / (2 * var[standing])
-        theta[standing] = parent.theta[standing] + dphi[standing]
-        p_tt[standing] = parent.p_tt[standing] + var_dphi[standing]
+        child.theta[moving] = parent.theta[moving] + gain * err + geo.dphi[moving]
+        child.p_tt[moving] = parent.p_tt[moving] * (1 - gain) + geo.var_dphi[moving]
+        child.log_s[moving] = np.log(rr / rho0)
+        child.p_ss[moving] = var / rr**2
+        child.p_ts[moving] = 0.0
+        standing = np.flatnonzero(mask & geo.still)
+        child.loglik[standing] = geo.standing_loglik(standing)
+        child.theta[standing] = parent.theta[standing] + geo.dphi[standing]
+        child.p_tt[standing] = parent.p_tt[standing] + geo.var_dphi[standing]
 
     @staticmethod
-    def _kalman(
-        mask: np.ndarray,
-        delta: np.ndarray,
-        d: np.ndarray,
-        parent: _Tracks,
-        base_var: np.ndarray,
-        push_cov: np.ndarray,
-        dphi: np.ndarray,
-        var_dphi: np.ndarray,
-        loglik: np.ndarray,
-        theta: np.ndarray,
-        p_tt: np.ndarray,
-        log_s: np.ndarray,
-        p_ts: np.ndarray,
-        p_ss: np.ndarray,
-    ) -> None:
+    def _kalman(mask: np.ndarray, geo: _Geometry, parent: _Tracks, child: _Child) -> None:
         k = np.flatnonzero(mask)
-        # Unseen pushes (robot frame) turned into the image by the heading: R C R^T.
-        c, sn = np.cos(parent.theta[k]), np.sin(parent.theta[k])
-        cxx, cxy, cyy = push_cov[k, 0, 0], push_cov[k, 0, 1], push_cov[k, 1, 1]
+        th, ls = parent.theta[k], parent.log_s[k]
+        ptt, pts, pss = parent.p_tt[k], parent.p_ts[k], parent.p_ss[k]
+        # Unseen pushes (robot frame, scaled to the image) turned by the heading: R C R^T.
+        push = geo.push_cov[k] * (geo.s[k] ** 2)[:, None, None]
+        c, sn = np.cos(th), np.sin(th)
+        cxx, cxy, cyy = push[:, 0, 0], push[:, 0, 1], push[:, 1, 1]
         q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
         q12 = c * sn * (cxx - cyy) + (c * c - sn * sn) * cxy
         q22 = sn * sn * cxx + 2 * c * sn * cxy + c * c * cyy
-        th, ls = parent.theta[k], parent.log_s[k]
-        ptt, pts, pss = parent.p_tt[k], parent.p_ts[k], parent.p_ss[k]
         s = np.exp(ls)
-        pred = rotate(d[k], th) * s[:, None]  # h(x) = s R(theta) d
+        pred = rotate(geo.d[k], th) * s[:, None]  # h(x) = s R(theta) d
         h_t = rotate(pred, math.pi / 2.0)  # dh/dtheta
         h_s = pred  # dh/dlog s
-        e = delta[k] - pred
-        # S = base I + H P H^T with H = [h_t h_s] (2x2), P = [[ptt, pts], [pts, pss]].
+        e = geo.delta[k] - pred
+        # S = base I + R C R^T + H P H^T with H = [h_t h_s] (2x2), P = [[ptt, pts], [pts, pss]].
         hp_t = h_t * ptt[:, None] + h_s * pts[:, None]  # H P first column
         hp_s = h_t * pts[:, None] + h_s * pss[:, None]  # H P second column
-        s11 = base_var[k] + q11 + hp_t[:, 0] * h_t[:, 0] + hp_s[:, 0] * h_s[:, 0]
+        base = geo.base_var[k]
+        s11 = base + q11 + hp_t[:, 0] * h_t[:, 0] + hp_s[:, 0] * h_s[:, 0]
         s12 = q12 + hp_t[:, 0] * h_t[:, 1] + hp_s[:, 0] * h_s[:, 1]
-        s22 = base_var[k] + q22 + hp_t[:, 1] * h_t[:, 1] + hp_s[:, 1] * h_s[:, 1]
+        s22 = base + q22 + hp_t[:, 1] * h_t[:, 1] + hp_s[:, 1] * h_s[:, 1]
         det = s11 * s22 - s12**2
         i11, i12, i22 = s22 / det, -s12 / det, s11 / det
         maha = e[:, 0] ** 2 * i11 + 2 * e[:, 0] * e[:, 1] * i12 + e[:, 1] ** 2 * i22
-        loglik[k] = -LOG_2PI - 0.5 * np.log(det) - 0.5 * maha
+        child.loglik[k] = -LOG_2PI - 0.5 * np.log(det) - 0.5 * maha
         # Gain K = P H^T S^-1 (2x2); rows: theta, log s.
         sinv_e = np.column_stack([i11 * e[:, 0] + i12 * e[:, 1], i12 * e[:, 0] + i22 * e[:, 1]])
         dth = np.einsum("ij,ij->i", hp_t, sinv_e)
@@ -708,14 +707,11 @@ class Identifier:
         a_s = np.column_stack(
             [i11 * hp_s[:, 0] + i12 * hp_s[:, 1], i12 * hp_s[:, 0] + i22 * hp_s[:, 1]]
         )
-        new_tt = ptt - np.einsum("ij,ij->i", hp_t, a_t)
-        new_ts = pts - np.einsum("ij,ij->i", hp_t, a_s)
-        new_ss = pss - np.einsum("ij,ij->i", hp_s, a_s)
-        theta[k] = th + dth + dphi[k]
-        p_tt[k] = np.maximum(new_tt, 1e-14) + var_dphi[k]
-        log_s[k] = ls + dls
-        p_ts[k] = new_ts
-        p_ss[k] = np.maximum(new_ss, 0.0)
+        child.theta[k] = th + dth + geo.dphi[k]
+        child.p_tt[k] = np.maximum(ptt - np.einsum("ij,ij->i", hp_t, a_t), 1e-14) + geo.var_dphi[k]
+        child.log_s[k] = ls + dls
+        child.p_ts[k] = pts - np.einsum("ij,ij->i", hp_t, a_s)
+        child.p_ss[k] = np.maximum(pss - np.einsum("ij,ij->i", hp_s, a_s), 0.0)
 
     def _orientation(
         self, detected: np.ndarray, theta: np.ndarray, p_tt: np.ndarray, loglik: np.ndarray

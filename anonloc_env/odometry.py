@@ -91,6 +91,60 @@ def lateral(phi: np.ndarray) -> np.ndarray:
     return np.column_stack([-np.sin(phi), np.cos(phi)])
 
 
+class IntervalStatistics:
+    """What the likelihood model needs to know about an interval besides its displacement:
+    distance rolled, squared per-step increments, and the contacts' sideways bound. Used by the
+    env (for its reward) and by the policies (from their own observations) alike.
+
+    Args:
+        n: number of robots.
+        v_max: the robots' top speed (m/s), for :func:`push_bound`.
+        dt: the control step (s).
+    """
+
+    def __init__(self, n: int, v_max: float, dt: float) -> None:
+        self.n, self.v_max, self.dt = n, v_max, dt
+        self.clear()
+
+    def clear(self) -> None:
+        """Start a new interval."""
+        self.path = np.zeros(self.n)
+        self.sum_ds2 = np.zeros(self.n)
+        self.sum_dth2 = np.zeros(self.n)
+        self.push = np.zeros(self.n)
+        self.push_sum = np.zeros((self.n, 2))
+        self.contacts = False
+
+    def add_step(self, distance: np.ndarray, turn: np.ndarray) -> None:
+        """One control step: ``distance`` rolled (>= 0) and ``turn`` (rad), both ``(N,)``;
+        the arrays are consumed (squared in place)."""
+        self.path += distance
+        distance *= distance
+        self.sum_ds2 += distance
+        turn *= turn
+        self.sum_dth2 += turn
+
+    def add_contacts(self, who: np.ndarray, speed: np.ndarray, phi: np.ndarray) -> None:
+        """Robots ``who`` were in contact during a step, commanded at ``speed`` (m/s, theirs),
+        at heading ``phi`` (rad) relative to the interval's start."""
+        bound = push_bound(speed, self.v_max, self.dt)
+        self.push[who] += bound
+        self.push_sum[who] += bound[:, None] * lateral(phi)
+        self.contacts = True
+
+    def interval(self, d: np.ndarray, dphi: np.ndarray) -> Interval:
+        """The interval that ended with displacement ``d`` ``(N, 2)`` and turn ``dphi``."""
+        return Interval(
+            d=np.array(d, dtype=np.float64),
+            dphi=np.array(dphi, dtype=np.float64),
+            path=self.path.copy(),
+            sum_ds2=self.sum_ds2.copy(),
+            sum_dth2=self.sum_dth2.copy(),
+            push=self.push.copy() if self.contacts else None,
+            push_sum=self.push_sum.copy() if self.contacts else None,
+        )
+
+
 class Odometry:
     """Dead reckoning of N robots at once, reset at each picture.
 
@@ -112,15 +166,7 @@ class Odometry:
         the likelihood model needs; without them intervals report the straight distance."""
         self.since_picture = np.zeros((n, 3))
         """``(N, 3)`` own-frame ``(dx, dy, dphi)`` since the latest picture (m, m, rad)."""
-        self._start_interval()
-
-    def _start_interval(self) -> None:
-        self.path = np.zeros(self.n)
-        self.sum_ds2 = np.zeros(self.n)
-        self.sum_dth2 = np.zeros(self.n)
-        self.push = np.zeros(self.n)
-        self.push_sum = np.zeros((self.n, 2))
-        self.contacts = False
+        self.stats = IntervalStatistics(n, v_max, dt)
 
     def integrate(self, motion: Motion, rng: np.random.Generator, speed: np.ndarray) -> None:
         """Add one control step of wheel motion (with noise drawn from ``rng`` if any);
@@ -128,10 +174,7 @@ class Odometry:
         stats = self.statistics
         if stats and motion.contact.any():
             who = np.flatnonzero(motion.contact)
-            bound = push_bound(speed[who], self.v_max, self.dt)
-            self.push[who] += bound
-            self.push_sum[who] += bound[:, None] * lateral(self.since_picture[who, 2])
-            self.contacts = True
+            self.stats.add_contacts(who, speed[who], self.since_picture[who, 2])
         noisy = self.noise > 0.0
         if noisy:
             distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
@@ -155,11 +198,7 @@ class Odometry:
             y += dy
             phi += dth
         if stats:
-            self.path += step_ds
-            step_ds *= step_ds
-            self.sum_ds2 += step_ds
-            step_dth *= step_dth
-            self.sum_dth2 += step_dth
+            self.stats.add_step(step_ds, step_dth)
 
     def mark_picture(self) -> Interval:
         """Start a new interval at a picture; return the one just ended."""
@@ -167,15 +206,7 @@ class Odometry:
         if not self.statistics:
             self.since_picture = np.zeros((self.n, 3))
             return Interval.exact(ended[:, :2], ended[:, 2])
-        interval = Interval(
-            d=ended[:, :2].copy(),
-            dphi=ended[:, 2].copy(),
-            path=self.path,
-            sum_ds2=self.sum_ds2,
-            sum_dth2=self.sum_dth2,
-            push=self.push if self.contacts else None,
-            push_sum=self.push_sum if self.contacts else None,
-        )
+        interval = self.stats.interval(ended[:, :2], ended[:, 2])
         self.since_picture = np.zeros((self.n, 3))
-        self._start_interval()
+        self.stats.clear()
         return interval

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from anonloc_env.odometry import Interval, lateral, push_bound
+from anonloc_env.odometry import Interval, IntervalStatistics
 
 
 @dataclass(frozen=True)
@@ -78,8 +78,7 @@ class MotionLog:
 
     def __init__(self, n: int, v_max: float, dt: float) -> None:
         self.n = n
-        self.v_max = v_max
-        self.dt = dt
+        self.stats = IntervalStatistics(n, v_max, dt)
         self.speed = np.zeros(n)
         """``(R,)`` forward speed commanded for the step under way (set by the team)."""
         self.reset()
@@ -87,24 +86,13 @@ class MotionLog:
     def reset(self) -> None:
         """Forget the current interval."""
         self.last = np.zeros((self.n, 3))
-        self.path = np.zeros(self.n)
-        self.sum_ds2 = np.zeros(self.n)
-        self.sum_dth2 = np.zeros(self.n)
-        self.push = np.zeros(self.n)
-        self.push_sum = np.zeros((self.n, 2))
-        self.contacts = False
+        self.stats.clear()
 
     def _add(self, increment: np.ndarray, bumper: np.ndarray) -> None:
-        ds = np.hypot(increment[:, 0], increment[:, 1])
-        self.path += ds
-        self.sum_ds2 += ds**2
-        self.sum_dth2 += increment[:, 2] ** 2
         if bumper.any():
             who = np.flatnonzero(bumper)
-            bound = push_bound(self.speed[who], self.v_max, self.dt)
-            self.push[who] += bound
-            self.push_sum[who] += bound[:, None] * lateral(self.last[who, 2])
-            self.contacts = True
+            self.stats.add_contacts(who, self.speed[who], self.last[who, 2])
+        self.stats.add_step(np.hypot(increment[:, 0], increment[:, 1]), increment[:, 2].copy())
 
     def observe(self, step: Step) -> Interval | None:
         """Take in one step; return the interval that ended if a picture arrived."""
@@ -114,15 +102,7 @@ class MotionLog:
             return None
         # The last step before the picture is seen only through the whole interval's motion.
         self._add(step.between - self.last, step.bumper)
-        interval = Interval(
-            d=step.between[:, :2].copy(),
-            dphi=step.between[:, 2].copy(),
-            path=self.path.copy(),
-            sum_ds2=self.sum_ds2.copy(),
-            sum_dth2=self.sum_dth2.copy(),
-            push=self.push.copy() if self.contacts else None,
-            push_sum=self.push_sum.copy() if self.contacts else None,
-        )
+        interval = self.stats.interval(step.between[:, :2], step.between[:, 2])
         self.reset()
         self.last = step.odometry
         return interval
