@@ -76,6 +76,17 @@ def resolve(text: str, sets: Sequence[str] = ()) -> Scenario:
     return build(name, spec)
 
 
+def check_preset(name: str) -> str:
+    """``name`` if it is a preset, else an :class:`InputError` listing them."""
+    from anonloc_env.presets import preset_names
+
+    if name not in preset_names():
+        close = difflib.get_close_matches(name, preset_names(), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"unknown preset {name!r}{hint}; valid: {preset_names()}")
+    return name
+
+
 def build(name: str, spec: Mapping[str, Any]) -> Scenario:
     """Resolve ``spec`` (``{"preset": ..., **overrides}``) to a :class:`Scenario`."""
     from anonloc_env.presets import make_config

@@ -195,10 +195,18 @@ def _cell(value: Any) -> Any:
 def write_parquet(
     path: Path,
     rows: Sequence[dict[str, Any]],
-    columns: Sequence[str],
+    types: dict[str, str],
     metadata: dict[str, Any],
 ) -> None:
-    """Rows to Parquet atomically (lists stay lists); ``metadata`` goes into the schema as JSON."""
+    """Rows to Parquet atomically; ``metadata`` goes into the schema as JSON.
+
+    Args:
+        path: the file.
+        rows: dicts with the keys of ``types``.
+        types: column -> ``"string"``, ``"int64"``, ``"float64"``, ``"bool"`` or
+            ``"list<float64>"`` (lists stay lists).
+        metadata: the provenance record.
+    """
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -206,9 +214,15 @@ def write_parquet(
         raise ImportError(
             "writing Parquet needs pyarrow: pip install 'anonloc[cli]' (or write a .csv)"
         ) from error
-    table = pa.Table.from_pylist([{c: row.get(c) for c in columns} for row in rows])
-    if not rows:
-        table = pa.table({c: pa.array([], pa.null()) for c in columns})
-    table = table.replace_schema_metadata({"anonloc": json.dumps(metadata, default=str)})
+    arrow = {
+        "string": pa.string(),
+        "int64": pa.int64(),
+        "float64": pa.float64(),
+        "bool": pa.bool_(),
+        "list<float64>": pa.list_(pa.float64()),
+    }
+    schema = pa.schema([(name, arrow[kind]) for name, kind in types.items()])
+    schema = schema.with_metadata({"anonloc": json.dumps(metadata, default=str)})
+    table = pa.Table.from_pylist([{c: row.get(c) for c in types} for row in rows], schema=schema)
     with atomic_path(path) as tmp:
         pq.write_table(table, tmp)

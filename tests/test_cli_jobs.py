@@ -10,6 +10,7 @@ import pytest
 from anonloc_cli import jobs
 from anonloc_cli.jobs import Unit
 from anonloc_cli.store import Store, StoreBusyError, atomic_path, read_records, write_text
+from tests.cli_helpers import invoke, read_csv
 
 
 def test_unit_keys_are_stable_and_ignore_dict_order() -> None:
@@ -71,3 +72,25 @@ def test_the_store_is_locked_and_files_are_replaced_atomically(tmp_path: Path) -
         fail_halfway()
     assert target.read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.jsonl", "table.md"]
+
+
+def test_ray_backend_gives_the_same_rows_as_the_process_pool(tmp_path: Path) -> None:
+    pytest.importorskip("ray", reason="the Ray backend needs the ray extra")
+    args = [
+        "--scenario",
+        "default",
+        "--policy",
+        "bayes",
+        "--pictures",
+        "3",
+        "--seeds",
+        "3",
+        "--quiet",
+    ]
+    ray_out, pool_out = tmp_path / "ray.csv", tmp_path / "pool.csv"
+    result = invoke("bench", *args, "--out", ray_out, "--backend", "ray", "--workers", "2")
+    assert result.exit_code == 0, result.output
+    assert invoke("bench", *args, "--out", pool_out).exit_code == 0
+    assert read_csv(ray_out) == read_csv(pool_out)
+    worker = json.loads((tmp_path / "ray.units.jsonl").read_text().splitlines()[0])["worker"]
+    assert worker  # ran in a Ray worker process
