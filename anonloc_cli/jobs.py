@@ -292,11 +292,16 @@ def _run_ray(
         raise BackendError("the ray backend needs Ray: pip install 'anonloc[ray]'") from error
     started = False
     if not ray.is_initialized():
+        start = time.perf_counter()
         if address is None:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         else:
             ray.init(address=address, log_to_driver=False)
         started = True
+        log.info(
+            "ray ready",
+            extra={"address": address, "seconds": round(time.perf_counter() - start, 3)},
+        )
     failed: list[str] = []
     task = ray.remote(num_cpus=1, max_retries=retries)(execute)
     pending = {task.remote(unit.to_dict()): unit for unit in todo}

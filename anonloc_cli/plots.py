@@ -59,8 +59,14 @@ def sweep(
     right.set_ylim(bottom=0)
     for axis in (left, right):
         axis.set_xlabel(definition.xlabel)
-        if definition.log_x:
+        xs = list(definition.xs)
+        if definition.log_x and min(xs) > 0:
             axis.set_xscale("log")
+        elif definition.log_x:  # 0 among the points: linear up to the smallest positive one
+            axis.set_xscale("symlog", linthresh=min(x for x in xs if x > 0))
+            axis.set_xlim(left=-0.1 * min(x for x in xs if x > 0))
+        axis.set_xticks(xs, [f"{x:g}" for x in xs])
+        axis.minorticks_off()
         axis.grid(alpha=0.3)
     left.legend(fontsize="small", loc="best")
     figure.suptitle(f"{definition.title} (bands: 95 % confidence intervals)")

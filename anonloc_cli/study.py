@@ -185,9 +185,9 @@ def labels(sweep: sweeps.Sweep) -> tuple[str, str]:
     if sweep.measure == "reid":
         return (
             f"identified again within {sweeps.REID_PICTURES} pictures (%)",
-            f"pictures after the blackout until belief >= {sweeps.REID_BELIEF:g}",
+            f"pictures after it until belief >= {sweeps.REID_BELIEF:g} (count)",
         )
-    return ("success at first decision (%)", "pictures to first decision")
+    return ("success at first decision (%)", "pictures to first decision (count)")
 
 
 def main(
@@ -218,8 +218,9 @@ def main(
         records = results.load()
     for sweep in chosen:
         _write(sweep, work[sweep.name], records, out, seeds=seeds, backend=backend)
+    sweeps_written = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''}"
     echo(
-        f"wrote {len(chosen)} sweeps to {out} in {time.perf_counter() - start:.1f} s "
+        f"wrote {sweeps_written} to {out} in {time.perf_counter() - start:.1f} s "
         f"({report.ran} episodes executed, {report.skipped} reused)"
     )
     if report.failed:

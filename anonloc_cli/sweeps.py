@@ -59,7 +59,7 @@ class Sweep:
         xlabel: the x axis, with its unit.
         xs: the values.
         variants: the policies compared.
-        log_x: a logarithmic x axis.
+        log_x: a logarithmic x axis (linear between 0 and the smallest positive x).
         measure: ``"decision"`` (success and pictures at each robot's first decision) or
             ``"reid"`` (identified again after a blackout, and how many pictures it took).
     """
@@ -97,7 +97,8 @@ SWEEPS: dict[str, Sweep] = {
             "noise",
             "Pixel noise",
             "pixel noise std (image units; 100 units = 1 m)",
-            (0, 1, 2, 4, 8, 16),
+            (0, 1, 2, 4, 8, 16, 32, 64),
+            log_x=True,
         ),
         Sweep(
             "tilt",
@@ -126,8 +127,9 @@ SWEEPS: dict[str, Sweep] = {
         Sweep(
             "swarm",
             "Swarm-like motion (shared commands, per-robot jitter)",
-            "per-robot command jitter (0: identical commands, 1: independent)",
+            "per-robot command jitter (0: identical, 1: independent)",
             (0, 0.05, 0.1, 0.2, 0.5, 1),
+            log_x=True,
         ),
         Sweep(
             "blackout",
