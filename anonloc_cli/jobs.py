@@ -50,7 +50,8 @@ class Unit:
     """One piece of work.
 
     Attributes:
-        kind: which module runs it (a key of :data:`KINDS`).
+        kind: which module runs it: a key of :data:`KINDS`, or the dotted name of any module
+            with a ``run_unit(unit) -> dict`` function.
         scenario: the arguments of :func:`anonloc_env.parallel_env`,
             ``{"preset": name, **overrides}``.
         policy: the policy's name.
@@ -93,7 +94,7 @@ class Unit:
 def execute(unit: dict[str, Any]) -> dict[str, Any]:
     """Run one unit (in a worker): ``{"result": ..., "seconds": ..., "worker": ...}``."""
     start = time.perf_counter()
-    module = importlib.import_module(KINDS[unit["kind"]])
+    module = importlib.import_module(KINDS.get(unit["kind"], unit["kind"]))
     result = module.run_unit(Unit.from_dict(unit))
     return {
         "result": result,

@@ -1,4 +1,4 @@
-"""Work units for the job-runner tests: ones whose worker dies (``kind="crash"``)."""
+"""Work units for the job-runner tests (``kind="tests.cli_units"``): ones whose worker dies."""
 
 from __future__ import annotations
 

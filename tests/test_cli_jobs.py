@@ -36,15 +36,12 @@ def test_unit_keys_are_stable_and_ignore_dict_order() -> None:
 
 def _crash_units(tmp_path: Path, dies: list[str | None]) -> list[Unit]:
     return [
-        Unit("crash", {}, "none", seed, {"die": die, "marker": str(tmp_path)})
+        Unit("tests.cli_units", {}, "none", seed, {"die": die, "marker": str(tmp_path)})
         for seed, die in enumerate(dies)
     ]
 
 
-def test_a_worker_that_dies_is_retried_and_nothing_is_lost(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    monkeypatch.setitem(jobs.KINDS, "crash", "tests.cli_units")
+def test_a_worker_that_dies_is_retried_and_nothing_is_lost(tmp_path: Path) -> None:
     units = _crash_units(tmp_path, [None, "once", None, "always", None, None])
     with Store(tmp_path / "s.jsonl") as store:
         report = jobs.run_units(units, store, workers=2, quiet=True)
