@@ -1,0 +1,346 @@
+"""The ``anonloc`` command line (Typer): thin commands over :mod:`anonloc_cli`'s modules.
+
+Only Typer is imported at start-up, so that ``anonloc --help`` answers at once; every command
+imports what it needs when it runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import sys
+from collections.abc import Iterator
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, NoReturn
+
+import typer
+
+from anonloc_cli.sweeps import DEFAULT_SEEDS, SWEEPS  # plain data, nothing heavy
+
+log = logging.getLogger("anonloc_cli")
+
+app = typer.Typer(
+    name="anonloc",
+    help=(
+        "Self-localization of anonymous robots from aerial images: reproduce the paper, "
+        "benchmark policies, study the open questions, render episodes."
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help texts are plain: "[ray]" in them is not markup
+)
+
+
+class Backend(str, Enum):
+    """Where the work units run."""
+
+    process = "process"
+    ray = "ray"
+
+
+class Mode(str, Enum):
+    """Which version of the paper's methods."""
+
+    corrected = "corrected"
+    faithful = "faithful"
+
+
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+Verbose = Annotated[
+    int,
+    typer.Option(
+        "--verbose", "-v", count=True, help="Log to stderr as JSON lines (-v info, -vv debug)."
+    ),
+]
+BackendOption = Annotated[
+    Backend,
+    typer.Option(
+        help="process: a local process pool; ray: Ray tasks (pip install 'anonloc[ray]')."
+    ),
+]
+Address = Annotated[
+    str | None,
+    typer.Option(
+        help="With --backend ray: the cluster to join (e.g. ray://host:10001 or auto); "
+        "default: start a local Ray instance."
+    ),
+]
+Workers = Annotated[
+    int | None,
+    typer.Option(min=1, help="Parallel workers (default: one per core)."),
+]
+Sets = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set",
+        help="Override a config value in every scenario: key=value, e.g. n_robots=10 or "
+        "camera.pixel_noise=1.5 (repeatable).",
+    ),
+]
+
+
+def _version(value: bool) -> None:
+    if value:
+        import anonloc_env
+
+        typer.echo(f"anonloc {anonloc_env.__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    """Self-localization of anonymous robots from aerial images."""
+
+
+@contextlib.contextmanager
+def _command(verbose: int) -> Iterator[None]:
+    """Set up logging; turn the expected failures into a message and an exit status."""
+    from anonloc_cli.console import setup_logging
+
+    setup_logging(verbose)
+    from anonloc_cli.jobs import BackendError, UnitError
+    from anonloc_cli.scenarios import InputError
+    from anonloc_cli.store import StoreBusyError
+
+    try:
+        yield
+    except (InputError, BackendError) as error:
+        typer.echo(f"Error: {error}", err=True)
+        raise typer.Exit(2) from None
+    except (StoreBusyError, UnitError) as error:
+        typer.echo(f"Error: {error}", err=True)
+        raise typer.Exit(1) from None
+    except KeyboardInterrupt:
+        typer.echo(
+            "\nInterrupted. Every finished unit is saved; run the same command again to resume.",
+            err=True,
+        )
+        raise typer.Exit(130) from None
+
+
+def _check_address(backend: Backend, address: str | None) -> None:
+    from anonloc_cli.scenarios import InputError
+
+    if address is not None and backend is not Backend.ray:
+        raise InputError("--address only applies to --backend ray")
+
+
+@app.command()
+def reproduce(
+    runs: Annotated[
+        int | None,
+        typer.Option(min=1, help="Runs of each experiment (default: the paper's 65, 100 and 118)."),
+    ] = None,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("results"),
+    backend: BackendOption = Backend.process,
+    address: Address = None,
+    workers: Workers = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Re-run the paper's three experiments and print its table next to the paper's figures.
+
+    Writes OUT/reproduce.md (the table, versions, command), OUT/reproduce.csv (one row per run
+    and robot) and the resumable store OUT/reproduce.jsonl: run it again to resume.
+    """
+    with _command(verbose):
+        _check_address(backend, address)
+        from anonloc_cli import reproduce as command
+        from baselines.paper import EXPERIMENTS
+
+        counts = {m: (e.runs if runs is None else runs) for m, e in EXPERIMENTS.items()}
+        status = command.main(
+            counts, out, backend=backend.value, address=address, workers=workers, quiet=quiet
+        )
+    raise typer.Exit(status)
+
+
+@app.command()
+def bench(
+    scenario: Annotated[
+        list[str],
+        typer.Option(
+            help="A preset (default, paper-angular, paper-linear, paper-motion) or a TOML/YAML "
+            "scenario file (repeatable)."
+        ),
+    ],
+    policy: Annotated[
+        list[str],
+        typer.Option(help="A policy: angular, linear, motion, motion3, bayes (repeatable)."),
+    ],
+    seeds: Annotated[
+        int, typer.Option(min=1, help="Episodes per policy and scenario (seeds 0..N-1).")
+    ],
+    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
+    mode: Annotated[
+        Mode, typer.Option(help="The paper's methods as printed, or corrected.")
+    ] = Mode.corrected,
+    excitation: Annotated[
+        str | None,
+        typer.Option(
+            help="Motion between pictures (default: the policy's own): still, angular, "
+            "linear, motion, random, swarm."
+        ),
+    ] = None,
+    pictures: Annotated[
+        int | None,
+        typer.Option(
+            min=1, help="Stop each episode after K pictures (default: run it to its end)."
+        ),
+    ] = None,
+    set_: Sets = None,
+    backend: BackendOption = Backend.process,
+    address: Address = None,
+    workers: Workers = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Any policies x scenarios x seeds: one row per robot and episode, plus a summary table.
+
+    Writes OUT (CSV or Parquet), OUT's .md (summary and provenance), .meta.json, and the resumable
+    store OUT's .units.jsonl: run it again to resume.
+    """
+    with _command(verbose):
+        _check_address(backend, address)
+        from anonloc_cli import bench as command
+        from anonloc_cli import policies, scenarios
+
+        resolved = [scenarios.resolve(s, set_ or []) for s in scenario]
+        names = [policies.check_policy(p) for p in policy]
+        policies.check_excitation(excitation)
+        for s in resolved:
+            for name in names:
+                policies.check_team(name, s.config, mode=mode.value, excitation_spec=excitation)
+        status = command.main(
+            resolved,
+            names,
+            seeds,
+            out,
+            mode=mode.value,
+            excitation=excitation,
+            pictures=pictures,
+            backend=backend.value,
+            address=address,
+            workers=workers,
+            quiet=quiet,
+        )
+    raise typer.Exit(status)
+
+
+@app.command()
+def study(
+    sweep: Annotated[
+        list[str] | None,
+        typer.Option(help=f"A sweep (repeatable; default: all): {', '.join(SWEEPS)}."),
+    ] = None,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("results/study"),
+    seeds: Annotated[
+        int | None,
+        typer.Option(min=1, help=f"Episodes per point and policy (default: {DEFAULT_SEEDS})."),
+    ] = None,
+    backend: BackendOption = Backend.process,
+    address: Address = None,
+    workers: Workers = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Sweeps on the paper's open questions, as plots with 95 % bands and CSV.
+
+    Success and pictures to decision of bayes (and of the corrected motion method) against the
+    number of robots, picture interval, control step, pixel noise, camera tilt, misses, false
+    detections, swarm-like motion, and a blackout (pictures until identified again).
+
+    Writes OUT/NAME.png, .svg (95 % confidence bands), .csv and .meta.json per sweep, and the
+    resumable store OUT/study.jsonl: run it again to resume (or with more --seeds to add episodes).
+    """
+    with _command(verbose):
+        _check_address(backend, address)
+        from anonloc_cli import study as command
+
+        command.check_sweeps(sweep or [])
+        status = command.main(
+            sweep or [],
+            out,
+            seeds=seeds or DEFAULT_SEEDS,
+            backend=backend.value,
+            address=address,
+            workers=workers,
+            quiet=quiet,
+        )
+    raise typer.Exit(status)
+
+
+@app.command()
+def render(
+    out: Annotated[
+        Path | None, typer.Option(help="A .gif (or .mp4 with an ffmpeg plugin).")
+    ] = None,
+    scenario: Annotated[
+        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
+    ] = "default",
+    policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
+    seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
+    steps: Annotated[int, typer.Option(min=1, help="Control steps to play.")] = 200,
+    fps: Annotated[
+        float, typer.Option(min=0.1, help="Frames per second of simulated time.")
+    ] = 20.0,
+    human: Annotated[
+        bool, typer.Option("--human", help="Show a window instead of writing a file.")
+    ] = False,
+    set_: Sets = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Play a scenario with a policy and write a GIF or MP4 showing each robot's current guess.
+
+    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    """
+    with _command(verbose):
+        from anonloc_cli import policies, scenarios
+        from anonloc_cli import render as command
+
+        command.check_output(out, human)
+        resolved = scenarios.resolve(scenario, set_ or [])
+        name = policies.check_policy(policy)
+        policies.check_team(name, resolved.config, mode="corrected")
+        status = command.main(
+            resolved, name, out=out, seed=seed, steps=steps, human=human, fps=fps, quiet=quiet
+        )
+    raise typer.Exit(status)
+
+
+@app.command()
+def frame(
+    out: Annotated[Path, typer.Option(help="The PNG to write.")] = Path("frame.png"),
+    preset: Annotated[str, typer.Option(help="A preset.")] = "default",
+    seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
+    steps: Annotated[int, typer.Option(min=0, help="Random steps before the frame.")] = 100,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """One rendered frame after a short seeded random rollout (the former python -m anonloc_env).
+
+    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    """
+    with _command(verbose):
+        from anonloc_cli import scenarios
+        from anonloc_env.__main__ import demo
+
+        scenarios.check_preset(preset)
+        status = demo(
+            ["--preset", preset, "--seed", str(seed), "--steps", str(steps), "--out", str(out)]
+        )
+    raise typer.Exit(status)
+
+
+def main(argv: list[str] | None = None, prog_name: str = "anonloc") -> NoReturn:
+    """Run the command line (``argv`` defaults to ``sys.argv[1:]``) and exit."""
+    app(args=sys.argv[1:] if argv is None else argv, prog_name=prog_name)
+    raise SystemExit(0)  # pragma: no cover - Typer always exits

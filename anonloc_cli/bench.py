@@ -1,0 +1,225 @@
+"""``anonloc bench``: policies x scenarios x seeds, one row per robot and episode.
+
+Each unit plays one episode: ``env = anonloc_env.parallel_env(**scenario)``, a team of all its
+robots running the policy, ``baselines.runner.run_episode(env, team, seed, max_pictures=K)``.
+
+Columns of the output (CSV, or Parquet when the path ends in ``.parquet``):
+
+| column | meaning |
+|---|---|
+| `policy`, `scenario`, `mode`, `excitation` | what ran (`excitation` empty: the policy's own) |
+| `n_robots`, `seed`, `robot` | which episode and robot |
+| `pictures_to_decision` | pictures seen at the robot's first decision (empty: never decided) |
+| `decision_time` | when that picture was taken (s) |
+| `correct` | that first decision was the robot's true row |
+| `energy` | wheel travel until that decision (m; empty: never decided) |
+| `energy_total` | wheel travel until the last scored picture (m) |
+| `belief_true` | the belief the robot gave its true row at each picture (a list; JSON in CSV) |
+
+Next to ``PATH``: ``PATH.md`` (summary table and provenance), ``PATH.meta.json`` (provenance) and
+the resumable store ``PATH.units.jsonl``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from anonloc_cli import jobs, provenance, store, tables
+from anonloc_cli.console import echo
+from anonloc_cli.jobs import Unit
+from anonloc_cli.scenarios import Scenario
+from baselines.paper import Rate
+
+#: Columns and their types (for Parquet).
+TYPES = {
+    "policy": "string",
+    "scenario": "string",
+    "mode": "string",
+    "excitation": "string",
+    "n_robots": "int64",
+    "seed": "int64",
+    "robot": "int64",
+    "pictures_to_decision": "int64",
+    "decision_time": "float64",
+    "correct": "bool",
+    "energy": "float64",
+    "energy_total": "float64",
+    "belief_true": "list<float64>",
+}
+COLUMNS = list(TYPES)
+
+
+def store_path(out: Path) -> Path:
+    """The resumable store of output ``out``."""
+    return out.with_name(f"{out.stem}.units.jsonl")
+
+
+def units(
+    scenarios: Sequence[Scenario],
+    policies: Sequence[str],
+    seeds: int,
+    *,
+    mode: str,
+    excitation: str | None,
+    pictures: int | None,
+) -> list[Unit]:
+    """One unit per (policy, scenario, seed)."""
+    return [
+        Unit(
+            "bench",
+            scenario.spec,
+            policy,
+            seed,
+            {
+                "scenario": scenario.name,
+                "mode": mode,
+                "excitation": excitation,
+                "pictures": pictures,
+            },
+        )
+        for policy in policies
+        for scenario in scenarios
+        for seed in range(seeds)
+    ]
+
+
+def run_unit(unit: Unit) -> list[dict[str, Any]]:
+    """Play one episode; one row per robot (see the module's table)."""
+    import anonloc_env
+    from anonloc_cli.policies import build_team
+    from baselines.runner import run_episode
+
+    p = unit.params
+    env = anonloc_env.parallel_env(**unit.scenario)
+    team = build_team(
+        unit.policy, env.config, mode=p["mode"], excitation_spec=p["excitation"], seed=unit.seed
+    )
+    result = run_episode(env, team, unit.seed, max_pictures=p["pictures"])
+    own = [r for r in result.records if r.localizer == ""]
+    rows = []
+    for d in result.decisions():
+        mine = sorted((r for r in own if r.robot == d.robot), key=lambda r: r.picture)
+        decided = d.picture >= 0
+        rows.append(
+            {
+                "policy": unit.policy,
+                "scenario": p["scenario"],
+                "mode": p["mode"],
+                "excitation": p["excitation"],
+                "n_robots": result.n_robots,
+                "seed": unit.seed,
+                "robot": d.robot,
+                "pictures_to_decision": d.picture + 1 if decided else None,
+                "decision_time": d.time if decided else None,
+                "correct": bool(d.correct),
+                "energy": d.energy if decided else None,
+                "energy_total": mine[-1].energy if mine else 0.0,
+                "belief_true": [round(r.belief_true, 6) for r in mine],
+            }
+        )
+    return rows
+
+
+def summary(rows: Sequence[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
+    """Per (policy, scenario): success with its Wilson interval, pictures and energy."""
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["policy"], row["scenario"]), []).append(row)
+    headers = [
+        "policy",
+        "scenario",
+        "robots",
+        "success (95 % CI)",
+        "decided",
+        "pictures to decision (95 % CI)",
+        "energy at decision, m (95 % CI)",
+    ]
+    out = []
+    for (policy, scenario), mine in groups.items():
+        rate = Rate(sum(bool(r["correct"]) for r in mine), len(mine))
+        decided = [r for r in mine if r["pictures_to_decision"] is not None]
+        out.append(
+            [
+                policy,
+                scenario,
+                str(len(mine)),
+                tables.rate_text(rate),
+                f"{100 * len(decided) / len(mine):.1f} %",
+                str(tables.mean_interval([r["pictures_to_decision"] for r in decided])),
+                str(tables.mean_interval([r["energy"] for r in decided])),
+            ]
+        )
+    return headers, out
+
+
+def main(
+    scenarios: Sequence[Scenario],
+    policies: Sequence[str],
+    seeds: int,
+    out: Path,
+    *,
+    mode: str,
+    excitation: str | None,
+    pictures: int | None,
+    backend: str,
+    address: str | None,
+    workers: int | None,
+    quiet: bool,
+) -> int:
+    """Run (or resume) the bench and write its rows and summary; the exit status."""
+    from anonloc_env.presets import config_to_dict
+
+    start = time.perf_counter()
+    work = units(scenarios, policies, seeds, mode=mode, excitation=excitation, pictures=pictures)
+    with store.Store(store_path(out)) as results:
+        report = jobs.run_units(
+            work,
+            results,
+            backend=backend,
+            address=address,
+            workers=workers,
+            quiet=quiet,
+            description="bench",
+        )
+        records = results.load()
+    rows = [row for u in work if u.key in records for row in records[u.key]["result"]]
+    record = provenance.provenance(
+        {s.name: config_to_dict(s.config) for s in scenarios},
+        policies=list(policies),
+        seeds=seeds,
+        mode=mode,
+        excitation=excitation,
+        pictures=pictures,
+        backend=backend,
+    )
+    if out.suffix.lower() == ".parquet":
+        store.write_parquet(out, rows, TYPES, record)
+    else:
+        store.write_csv(out, rows, COLUMNS)
+    store.write_json(store.meta_path(out), record)
+    headers, table = summary(rows)
+    wall = time.perf_counter() - start
+    tables.show("bench: success at each robot's first decision", headers, table)
+    text = "\n".join(
+        [
+            f"# Bench: {', '.join(policies)} on {', '.join(s.name for s in scenarios)}",
+            "",
+            tables.markdown(headers, table),
+            "",
+            f"{len(rows)} rows in `{out.name}`. Success: the robot's first decision was its true "
+            "row (95 % Wilson interval); pictures and energy: mean over the robots that decided "
+            "(95 % normal interval).",
+            "",
+            provenance.markdown(record),
+        ]
+    )
+    store.write_text(out.with_suffix(".md"), text)
+    echo(f"wrote {out} ({len(rows)} rows) and {out.with_suffix('.md')}")
+    echo(f"wall time: {wall:.1f} s ({report.ran} episodes executed, {report.skipped} reused)")
+    if report.failed:
+        echo(jobs.failed_message(report.failed, "episodes"), err=True)
+        return 1
+    return 0

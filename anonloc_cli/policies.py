@@ -1,0 +1,114 @@
+"""The one place the commands turn a policy name into a team of robots.
+
+Every command resolves names through :func:`policy_names` and builds teams through
+:func:`build_team`, so that learned agents can later join by extending these two functions.
+Excitations are resolved here too: the names of :data:`baselines.excitations.EXCITATIONS` plus
+``swarm`` (:class:`anonloc_cli.swarm.SwarmMotion`).
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Sequence
+from typing import Any
+
+from anonloc_cli.scenarios import InputError
+from anonloc_env.config import EnvConfig
+
+MODES = ("corrected", "faithful")
+#: Jitter of the ``swarm`` excitation when named without one.
+SWARM_JITTER = 0.05
+
+
+def policy_names() -> list[str]:
+    """The valid policy names."""
+    import baselines
+
+    return baselines.policy_names()
+
+
+def excitation_names() -> list[str]:
+    """The valid excitation names."""
+    from baselines.excitations import EXCITATIONS
+
+    return [*EXCITATIONS, "swarm"]
+
+
+def check_policy(name: str) -> str:
+    """``name`` if it is a policy, else an :class:`InputError` listing the valid ones."""
+    return _check("policy", name, policy_names())
+
+
+def check_excitation(name: str | None) -> str | None:
+    """``name`` if it is an excitation (or None), else an :class:`InputError`."""
+    return None if name is None else _check("excitation", name, excitation_names())
+
+
+def check_mode(mode: str) -> str:
+    """``mode`` if it is ``corrected`` or ``faithful``."""
+    return _check("mode", mode, list(MODES))
+
+
+def _check(what: str, name: str, valid: Sequence[str]) -> str:
+    if name in valid:
+        return name
+    close = difflib.get_close_matches(name, list(valid), n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    raise InputError(f"unknown {what} {name!r}{hint}; valid: {list(valid)}")
+
+
+def excitation(spec: Any, seed: int) -> Any:
+    """An excitation from a name, ``{"swarm": jitter}``, or None (the policy's own)."""
+    from anonloc_cli.swarm import SwarmMotion
+
+    if isinstance(spec, dict) and "swarm" in spec:
+        return SwarmMotion(float(spec["swarm"]), common_seed=seed)
+    if spec == "swarm":
+        return SwarmMotion(SWARM_JITTER, common_seed=seed)
+    return spec
+
+
+def build_team(
+    policy: str,
+    config: EnvConfig,
+    *,
+    mode: str = "corrected",
+    excitation_spec: Any = None,
+    seed: int = 0,
+    **kwargs: Any,
+) -> Any:
+    """A team of all the config's robots running ``policy`` (see :func:`baselines.make_team`).
+
+    Args:
+        policy: a name from :func:`policy_names`.
+        config: the scenario.
+        mode: ``corrected`` or ``faithful``.
+        excitation_spec: None (the policy's own), a name, or ``{"swarm": jitter}``.
+        seed: the episode seed (the swarm's shared commands are drawn from it).
+        **kwargs: passed to the localizer (``bayes``: ``threshold``, ``scale_known``).
+    """
+    import baselines
+
+    return baselines.make_team(
+        policy, config, mode=mode, excitation=excitation(excitation_spec, seed), **kwargs
+    )
+
+
+def check_team(
+    policy: str, config: EnvConfig, *, mode: str, excitation_spec: Any = None, **kwargs: Any
+) -> None:
+    """Build the team once to surface a bad combination before any work.
+
+    The faithful angular and linear methods read their own excitation's commands (the paper's
+    algorithms do), which the team only finds out at the first decision: checked here.
+    """
+    own = {"angular": "angular", "linear": "linear"}
+    if mode == "faithful" and policy in own and excitation_spec not in (None, own[policy]):
+        raise InputError(
+            f"the faithful {policy} method needs the {own[policy]} excitation "
+            f"(got {excitation_spec!r}); use --mode corrected or drop --excitation"
+        )
+    try:
+        build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
+    except (TypeError, ValueError) as error:
+        raise InputError(f"policy {policy!r}: {error}") from error

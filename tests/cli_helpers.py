@@ -1,0 +1,47 @@
+"""Helpers of the command-line tests: run ``anonloc`` in-process or as a subprocess."""
+
+from __future__ import annotations
+
+import csv
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from typer.testing import CliRunner
+
+from anonloc_cli.app import app
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def invoke(*args: str) -> Any:
+    """Run ``anonloc ARGS`` in this process (Typer's CliRunner); returns the click Result."""
+    return CliRunner().invoke(app, [str(a) for a in args], catch_exceptions=False)
+
+
+def run_module(
+    *args: str, module: str = "anonloc_cli", **kwargs: Any
+) -> subprocess.CompletedProcess[str]:
+    """Run ``python -m MODULE ARGS`` in a subprocess with this checkout first on the path."""
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
+    env.setdefault("SDL_VIDEODRIVER", "dummy")
+    return subprocess.run(
+        [sys.executable, "-m", module, *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=kwargs.pop("cwd", ROOT),
+        timeout=kwargs.pop("timeout", 120),
+        **kwargs,
+    )
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    """A CSV file's rows as dicts of strings."""
+    with open(path, newline="") as file:
+        return list(csv.DictReader(file))

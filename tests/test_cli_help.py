@@ -1,0 +1,73 @@
+"""The command line's entry points, help texts and start-up cost."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.cli_helpers import ROOT, invoke, run_module
+
+COMMANDS = ["reproduce", "bench", "study", "render", "frame"]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_has_help_quiet_and_verbose(command: str) -> None:
+    result = invoke(command, "--help")
+    assert result.exit_code == 0
+    for option in ("--help", "--quiet", "--verbose"):
+        assert option in result.output
+
+
+def test_root_help_lists_the_commands() -> None:
+    result = invoke("--help")
+    assert result.exit_code == 0
+    for command in COMMANDS:
+        assert command in result.output
+
+
+def test_version() -> None:
+    import anonloc_env
+
+    result = invoke("--version")
+    assert result.exit_code == 0
+    assert anonloc_env.__version__ in result.output
+
+
+def test_python_m_anonloc_cli_and_anonloc_env_run_the_cli() -> None:
+    for module in ("anonloc_cli", "anonloc_env"):
+        done = run_module("--help", module=module)
+        assert done.returncode == 0, done.stderr
+        assert "reproduce" in done.stdout
+        assert "bench" in done.stdout
+
+
+def test_python_m_anonloc_env_still_writes_a_frame(tmp_path: Path) -> None:
+    pytest.importorskip("pygame", reason="the frame needs the render extra (pygame-ce)")
+    done = run_module("--out", tmp_path / "f.png", "--steps", "5", module="anonloc_env")
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "f.png").stat().st_size > 0
+
+
+def test_help_imports_nothing_heavy() -> None:
+    code = (
+        "import sys; import anonloc_cli.app; "
+        "heavy = ['anonloc_env', 'baselines', 'numpy', 'matplotlib', 'pyarrow', 'ray', 'imageio',"
+        " 'pygame', 'torch']; print([m for m in heavy if m in sys.modules])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    assert done.stdout.strip() == "[]"
+
+
+def test_no_library_module_imports_the_cli() -> None:
+    offenders = [
+        str(path.relative_to(ROOT))
+        for package in ("anonloc_env", "baselines", "agents")
+        for path in (ROOT / package).rglob("*.py")
+        if path.name != "__main__.py" and "anonloc_cli" in path.read_text()
+    ]
+    assert offenders == []
