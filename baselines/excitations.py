@@ -154,18 +154,18 @@ class RandomMotion(Excitation):
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         s = self.settings
-        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0))
+        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0)) if step.bumper.any() else _NONE
         if len(bumped):
             sign = np.where(self._draw(0.0, 1.0, bumped) < 0.5, -1.0, 1.0)
             self.escape_rate[bumped] = sign * self._draw(s.bump_turn / 2, s.bump_turn, bumped)
             self.escape[bumped] = self._draw(*s.bump_time, bumped)
         self.v_timer -= dt
         self.w_timer -= dt
-        due_v = np.flatnonzero(self.v_timer <= 0.0)
+        due_v = np.flatnonzero(self.v_timer <= 0.0) if self.v_timer.min() <= 0.0 else _NONE
         if len(due_v):
             self.v[due_v] = self._draw(*s.speed, due_v)
             self.v_timer[due_v] = self._draw(0.0, s.change_after, due_v)
-        due_w = np.flatnonzero(self.w_timer <= 0.0)
+        due_w = np.flatnonzero(self.w_timer <= 0.0) if self.w_timer.min() <= 0.0 else _NONE
         if len(due_w):
             self.w[due_w] = self._draw(-s.turn, s.turn, due_w)
             self.w_timer[due_w] = self._draw(0.0, s.change_after, due_w)
@@ -174,6 +174,9 @@ class RandomMotion(Excitation):
         v = np.where(escaping, 0.0, self.v)
         w = np.where(escaping, self.escape_rate, self.w)
         return v, w
+
+
+_NONE = np.zeros(0, dtype=np.int64)  # no robot: skips np.flatnonzero on the common path
 
 
 EXCITATIONS = {

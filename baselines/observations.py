@@ -22,11 +22,13 @@ class Step:
     """What a team of R robots (one env) observed at one step.
 
     Attributes:
-        rows: ``(n, 3)`` rows ``(u, v, theta)`` of the newest picture (padding removed).
+        rows: ``(n, 3)`` rows ``(u, v, theta)`` of the newest picture (padding removed); read
+            only at a new picture (empty otherwise).
         new_picture: whether that picture arrived at this step.
         odometry: ``(R, 3)`` own ``(dx, dy, dphi)`` since the newest picture.
         bumper: ``(R,)`` contact during this step.
-        between: ``(R, 3)`` own motion from the previous picture to the newest.
+        between: ``(R, 3)`` own motion from the previous picture to the newest (read only at a
+            new picture; zeros otherwise).
         interval: time between the previous picture and the newest (s).
     """
 
@@ -46,10 +48,13 @@ def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
             envs), or a key is missing.
     """
     first = observations[0]
+    n = len(observations)
     try:
-        detections = np.asarray(first["detections"])
-        mask = np.asarray(first["mask"]) > 0.5
-        rows = detections[mask].astype(np.float64)
+        new_picture = bool(first["new_picture"][0] > 0.5)
+        odometry = np.array([o["odometry"] for o in observations], dtype=np.float64)
+        bumper = np.array([o["bumper"][0] for o in observations]) > 0.5
+        if not new_picture:  # the picture and the interval only matter when they are new
+            return Step(_NO_ROWS, False, odometry, bumper, np.zeros((n, 3)), 0.0)
         for other in observations[1:]:
             if other["detections"] is not first["detections"] and not np.array_equal(
                 other["detections"], first["detections"]
@@ -57,14 +62,17 @@ def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
                 raise ValueError(
                     "a team's robots must share one env: their observations show different pictures"
                 )
-        odometry = np.array([o["odometry"] for o in observations], dtype=np.float64)
-        bumper = np.array([o["bumper"][0] for o in observations], dtype=np.float64)
+        detections = np.asarray(first["detections"])
+        rows = detections[np.asarray(first["mask"]) > 0.5].astype(np.float64)
         between = np.array([o["odometry_between"] for o in observations], dtype=np.float64)
-        new_picture = bool(first["new_picture"][0] > 0.5)
         interval = float(first["interval"][0])
     except KeyError as missing:
         raise ValueError(f"observation lacks the key {missing.args[0]!r}") from None
-    return Step(rows, new_picture, odometry, bumper > 0.5, between, interval)
+    return Step(rows, True, odometry, bumper, between, interval)
+
+
+_NO_ROWS = np.zeros((0, 3))
+_NO_ROWS.flags.writeable = False
 
 
 class MotionLog:
