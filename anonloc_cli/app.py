@@ -331,7 +331,7 @@ def frame(
     """
     with _command(verbose):
         from anonloc_cli import scenarios
-        from anonloc_env.__main__ import demo
+        from anonloc_env.demo import demo
 
         scenarios.check_preset(preset)
         status = demo(

@@ -10,13 +10,9 @@ Usage: ``python -m anonloc_env [--preset NAME] [--seed N] [--steps N] [--out FIL
 
 from __future__ import annotations
 
-import argparse
 import sys
-from pathlib import Path
 
-import numpy as np
-
-import anonloc_env
+from anonloc_env.demo import demo
 
 #: Options of the command line that are not the demo's.
 _CLI_FLAGS = ("--help", "-h", "--version")
@@ -35,41 +31,6 @@ def main(argv: list[str] | None = None) -> int:
         args = ["frame", *args]  # the demo's options without a command: the demo, as before
     cli(args, prog_name="python -m anonloc_env")
     return 0  # pragma: no cover - the command line always exits
-
-
-def demo(argv: list[str] | None = None) -> int:
-    """Play ``--steps`` random steps of ``--preset`` and save the last frame to ``--out``."""
-    parser = argparse.ArgumentParser(prog="python -m anonloc_env", description=__doc__)
-    parser.add_argument("--preset", default="default", choices=anonloc_env.preset_names())
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--steps", type=int, default=100)
-    parser.add_argument("--out", type=Path, default=Path("frame.png"))
-    args = parser.parse_args(argv)
-    env = anonloc_env.parallel_env(args.preset, render_mode="rgb_array")
-    env.reset(seed=args.seed)
-    rng = np.random.default_rng(args.seed)
-    rewards = 0.0
-    for _ in range(args.steps):
-        if not env.agents:
-            break
-        actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
-        _, reward, *_ = env.step(actions)
-        rewards += sum(reward.values())
-    if env.picture is not None:  # draw each robot's true row as its "guess"
-        truth = env.picture.true_index
-        env.guesses = {a: int(truth[i]) for i, a in enumerate(env.possible_agents)}
-    frame = env.render()
-    assert frame is not None  # rgb_array mode always returns a frame
-    import pygame  # the render extra is installed if render() worked
-
-    surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
-    pygame.image.save(surface, str(args.out))
-    print(
-        f"{args.preset}: {env.steps} steps, {env.pictures_taken} pictures, "
-        f"total reward {rewards:.4f}; frame written to {args.out}"
-    )
-    env.close()
-    return 0
 
 
 if __name__ == "__main__":
