@@ -174,17 +174,15 @@ def main(
 
     start = time.perf_counter()
     work = units(scenarios, policies, seeds, mode=mode, excitation=excitation, pictures=pictures)
-    with store.Store(store_path(out)) as results:
-        report = jobs.run_units(
-            work,
-            results,
-            backend=backend,
-            address=address,
-            workers=workers,
-            quiet=quiet,
-            description="bench",
-        )
-        records = results.load()
+    report, records = jobs.run_stored(
+        work,
+        store_path(out),
+        backend=backend,
+        address=address,
+        workers=workers,
+        quiet=quiet,
+        description="bench",
+    )
     rows = [row for u in work if u.key in records for row in records[u.key]["result"]]
     record = provenance.provenance(
         {s.name: config_to_dict(s.config) for s in scenarios},

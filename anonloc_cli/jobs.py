@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from anonloc_cli.console import progress
@@ -340,3 +341,28 @@ def _run_ray(
         if started:
             ray.shutdown()
     return failed
+
+
+def run_stored(
+    units: Sequence[Unit],
+    path: Path,
+    *,
+    backend: str,
+    address: str | None,
+    workers: int | None,
+    quiet: bool,
+    description: str,
+) -> tuple[Report, dict[str, Any]]:
+    """Run (or resume) ``units`` into the store at ``path``; the report and every stored
+    record by key (the ones of earlier runs included)."""
+    with Store(path) as results:
+        report = run_units(
+            units,
+            results,
+            backend=backend,
+            address=address,
+            workers=workers,
+            quiet=quiet,
+            description=description,
+        )
+        return report, results.load()

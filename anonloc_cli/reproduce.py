@@ -145,17 +145,15 @@ def main(
 
     start = time.perf_counter()
     work = units(runs)
-    with store.Store(out / "reproduce.jsonl") as results:
-        report = jobs.run_units(
-            work,
-            results,
-            backend=backend,
-            address=address,
-            workers=workers,
-            quiet=quiet,
-            description="reproduce",
-        )
-        records = results.load()
+    report, records = jobs.run_stored(
+        work,
+        out / "reproduce.jsonl",
+        backend=backend,
+        address=address,
+        workers=workers,
+        quiet=quiet,
+        description="reproduce",
+    )
     outcomes: dict[str, list[RunOutcome]] = {m: [] for m in METHODS}
     for unit in work:
         if unit.key in records:

@@ -205,17 +205,15 @@ def main(
     chosen = check_sweeps(names)
     work = {s.name: units(s, seeds) for s in chosen}  # every config is checked here
     everything = [u for s in chosen for u in work[s.name]]
-    with store.Store(out / "study.jsonl") as results:
-        report = jobs.run_units(
-            everything,
-            results,
-            backend=backend,
-            address=address,
-            workers=workers,
-            quiet=quiet,
-            description="study",
-        )
-        records = results.load()
+    report, records = jobs.run_stored(
+        everything,
+        out / "study.jsonl",
+        backend=backend,
+        address=address,
+        workers=workers,
+        quiet=quiet,
+        description="study",
+    )
     for sweep in chosen:
         _write(sweep, work[sweep.name], records, out, seeds=seeds, backend=backend)
     sweeps_written = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''}"

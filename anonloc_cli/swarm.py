@@ -18,11 +18,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from baselines.excitations import Excitation, RandomSettings
+from baselines.excitations import BumpEscape, RandomSettings
 from baselines.observations import Step
 
 
-class SwarmMotion(Excitation):
+class SwarmMotion(BumpEscape):
     """Random motion shared by all robots, with a per-robot jitter.
 
     Args:
@@ -50,8 +50,7 @@ class SwarmMotion(Excitation):
         self.w = self._blend(-s.turn, s.turn)
         self.v_timer = self.common.uniform(0.0, s.change_after)
         self.w_timer = self.common.uniform(0.0, s.change_after)
-        self.escape = np.zeros(self.n)  # time left turning away from a bump (s)
-        self.escape_rate = np.zeros(self.n)
+        self._reset_escapes()
 
     def _blend(self, low: float, high: float) -> np.ndarray:
         shared = self.common.uniform(low, high)
@@ -60,11 +59,7 @@ class SwarmMotion(Excitation):
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         s = self.settings
-        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0))
-        if len(bumped):
-            sign = np.where(self._draw(0.0, 1.0, bumped) < 0.5, -1.0, 1.0)
-            self.escape_rate[bumped] = sign * self._draw(s.bump_turn / 2, s.bump_turn, bumped)
-            self.escape[bumped] = self._draw(*s.bump_time, bumped)
+        self._start_escapes(step)
         self.v_timer -= dt
         self.w_timer -= dt
         if self.v_timer <= 0.0:
@@ -73,6 +68,4 @@ class SwarmMotion(Excitation):
         if self.w_timer <= 0.0:
             self.w = self._blend(-s.turn, s.turn)
             self.w_timer = self.common.uniform(0.0, s.change_after)
-        escaping = self.escape > 0.0
-        self.escape = np.maximum(self.escape - dt, 0.0)
-        return np.where(escaping, 0.0, self.v), np.where(escaping, self.escape_rate, self.w)
+        return self._apply_escapes(dt, self.v, self.w)

@@ -134,7 +134,40 @@ class RandomSettings:
     bump_time: tuple[float, float] = (1.0, 2.0)
 
 
-class RandomMotion(Excitation):
+class BumpEscape(Excitation):
+    """Base of the random motions: after a bump a robot stops and turns in place at a random
+    rate (random sign) for a random time, as in the paper, before its own motion resumes.
+
+    Subclasses set ``settings`` (a :class:`RandomSettings`), call :meth:`_reset_escapes` in
+    ``reset``, and in ``commands`` call :meth:`_start_escapes` first and pass their commands
+    through :meth:`_apply_escapes` last.
+    """
+
+    settings: RandomSettings
+
+    def _reset_escapes(self) -> None:
+        self.escape = np.zeros(self.n)  # time left turning away from a bump (s)
+        self.escape_rate = np.zeros(self.n)
+
+    def _start_escapes(self, step: Step) -> None:
+        """Robots that just bumped (and are not escaping yet) draw an escape."""
+        s = self.settings
+        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0)) if step.bumper.any() else _NONE
+        if len(bumped):
+            sign = np.where(self._draw(0.0, 1.0, bumped) < 0.5, -1.0, 1.0)
+            self.escape_rate[bumped] = sign * self._draw(s.bump_turn / 2, s.bump_turn, bumped)
+            self.escape[bumped] = self._draw(*s.bump_time, bumped)
+
+    def _apply_escapes(
+        self, dt: float, v: np.ndarray, w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The commands, with those of the robots escaping replaced by a turn in place."""
+        escaping = self.escape > 0.0
+        self.escape = np.maximum(self.escape - dt, 0.0)
+        return np.where(escaping, 0.0, v), np.where(escaping, self.escape_rate, w)
+
+
+class RandomMotion(BumpEscape):
     """Paper II.C: random speeds and turn rates changed at random moments; turn away after a
     bump. All robots use similar commands (the paper's "worst conditions")."""
 
@@ -149,16 +182,11 @@ class RandomMotion(Excitation):
         self.w = self._draw(-s.turn, s.turn, everyone)
         self.v_timer = self._draw(0.0, s.change_after, everyone)
         self.w_timer = self._draw(0.0, s.change_after, everyone)
-        self.escape = np.zeros(self.n)  # time left turning away from a bump (s)
-        self.escape_rate = np.zeros(self.n)
+        self._reset_escapes()
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         s = self.settings
-        bumped = np.flatnonzero(step.bumper & (self.escape <= 0.0)) if step.bumper.any() else _NONE
-        if len(bumped):
-            sign = np.where(self._draw(0.0, 1.0, bumped) < 0.5, -1.0, 1.0)
-            self.escape_rate[bumped] = sign * self._draw(s.bump_turn / 2, s.bump_turn, bumped)
-            self.escape[bumped] = self._draw(*s.bump_time, bumped)
+        self._start_escapes(step)
         self.v_timer -= dt
         self.w_timer -= dt
         due_v = np.flatnonzero(self.v_timer <= 0.0) if self.v_timer.min() <= 0.0 else _NONE
@@ -169,11 +197,7 @@ class RandomMotion(Excitation):
         if len(due_w):
             self.w[due_w] = self._draw(-s.turn, s.turn, due_w)
             self.w_timer[due_w] = self._draw(0.0, s.change_after, due_w)
-        escaping = self.escape > 0.0
-        self.escape = np.maximum(self.escape - dt, 0.0)
-        v = np.where(escaping, 0.0, self.v)
-        w = np.where(escaping, self.escape_rate, self.w)
-        return v, w
+        return self._apply_escapes(dt, self.v, self.w)
 
 
 _NONE = np.zeros(0, dtype=np.int64)  # no robot: skips np.flatnonzero on the common path
