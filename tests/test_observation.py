@@ -9,7 +9,8 @@ import anonloc_env
 from anonloc_env.geometry import rotate
 from tests.helpers import constant_actions
 
-KEYS = {
+#: The observation keys in their documented order (without and with history).
+KEY_ORDER = [
     "detections",
     "mask",
     "new_picture",
@@ -18,9 +19,11 @@ KEYS = {
     "bumper",
     "odometry_between",
     "interval",
-}
+]
+HISTORY_ORDER = ["history_detections", "history_mask", "history_odometry", "history_interval"]
+KEYS = set(KEY_ORDER)
+HISTORY_KEYS = set(HISTORY_ORDER)
 OWN = {"odometry", "bumper", "odometry_between", "history_odometry"}
-HISTORY_KEYS = {"history_detections", "history_mask", "history_odometry", "history_interval"}
 
 
 def test_ground_truth_is_in_infos_and_never_in_observations() -> None:
@@ -139,18 +142,7 @@ def test_keys_come_in_the_documented_order_and_flags_are_constants(history: int)
     env = anonloc_env.parallel_env(
         n_robots=3, arena_size=(1.5, 1.5), observation={"history": history}
     )
-    order = [
-        "detections",
-        "mask",
-        "new_picture",
-        "since_picture",
-        "odometry",
-        "bumper",
-        "odometry_between",
-        "interval",
-    ]
-    if history:
-        order += ["history_detections", "history_mask", "history_odometry", "history_interval"]
+    order = KEY_ORDER + (HISTORY_ORDER if history else [])
     obs, _ = env.reset(seed=0)
     bumps = 0.0
     for _ in range(30):  # crowded: some bumpers fire
