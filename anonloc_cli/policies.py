@@ -2,8 +2,8 @@
 
 Every command resolves names through :func:`policy_names` and builds teams through
 :func:`build_team`, so that learned agents can later join by extending these two functions.
-Excitations are resolved here too: the names of :data:`baselines.excitations.EXCITATIONS` plus
-``swarm`` (:class:`anonloc_cli.swarm.SwarmMotion`).
+Excitations are resolved here too: the names of :data:`baselines.excitations.EXCITATIONS`, where
+``swarm`` (:class:`baselines.excitations.SwarmMotion`) shares its stream through the episode seed.
 """
 
 from __future__ import annotations
@@ -16,8 +16,6 @@ from anonloc_cli.scenarios import InputError
 from anonloc_env.config import EnvConfig
 
 MODES = ("corrected", "faithful")
-#: Jitter of the ``swarm`` excitation when named without one.
-SWARM_JITTER = 0.05
 
 
 def policy_names() -> list[str]:
@@ -31,7 +29,7 @@ def excitation_names() -> list[str]:
     """The valid excitation names."""
     from baselines.excitations import EXCITATIONS
 
-    return [*EXCITATIONS, "swarm"]
+    return list(EXCITATIONS)
 
 
 def check_policy(name: str) -> str:
@@ -59,12 +57,12 @@ def _check(what: str, name: str, valid: Sequence[str]) -> str:
 
 def excitation(spec: Any, seed: int) -> Any:
     """An excitation from a name, ``{"swarm": jitter}``, or None (the policy's own)."""
-    from anonloc_cli.swarm import SwarmMotion
+    from baselines.excitations import SwarmMotion
 
     if isinstance(spec, dict) and "swarm" in spec:
         return SwarmMotion(float(spec["swarm"]), common_seed=seed)
     if spec == "swarm":
-        return SwarmMotion(SWARM_JITTER, common_seed=seed)
+        return SwarmMotion(common_seed=seed)
     return spec
 
 

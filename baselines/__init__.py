@@ -2,8 +2,11 @@
 
 >>> import anonloc_env, baselines
 >>> env = anonloc_env.parallel_env("paper-motion")
->>> policy = baselines.make("bayes", env.config, excitation="motion")
->>> team = baselines.make_team("motion", env.config, n=2, mode="faithful")
+>>> policy = baselines.make("bayes", env, excitation="motion")
+>>> team = baselines.make_team("motion", env, n=2, mode="faithful")
+
+Every policy is built for the scenario it runs in (``env``, or ``config=`` an ``EnvConfig`` or a
+preset name): the localizers' sensor model comes from it. Without one, ``make`` raises.
 
 Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown) and ``bayes``. See
 :mod:`baselines.localizers` for the maths and :mod:`baselines.excitations` for the motions.
@@ -30,7 +33,16 @@ from baselines.localizers import (
 from baselines.observations import Step
 from baselines.policies import BaselinePolicy, Policy, Team
 
-__all__ = ["POLICIES", "BaselinePolicy", "Policy", "Team", "make", "make_team", "policy_names"]
+__all__ = [
+    "POLICIES",
+    "BaselinePolicy",
+    "Policy",
+    "Team",
+    "make",
+    "make_team",
+    "policy_names",
+    "scenario_config",
+]
 
 #: name -> (localizer class, name of the excitation its method prescribes)
 POLICIES: dict[str, tuple[type[Localizer], str]] = {
@@ -65,15 +77,39 @@ class PolicyExcitation(Excitation):
         return to_commands(np.asarray(actions).reshape(self.n, 2), self.config.robot)
 
 
-def _config(config: EnvConfig | str | None, env: Any) -> EnvConfig:
+def scenario_config(env: Any = None, config: EnvConfig | str | None = None) -> EnvConfig:
+    """The scenario a policy is built for: ``env``'s config, or ``config`` (an ``EnvConfig`` or a
+    preset name). A localizer's sensor model comes from it, so it is never guessed.
+
+    Raises:
+        ValueError: neither is given, or both are and they differ.
+        TypeError: ``config`` is neither an ``EnvConfig`` nor a preset name.
+    """
+    if isinstance(env, (EnvConfig, str)) and config is None:
+        env, config = None, env  # a config given where the env goes (the positional slot)
+    from_env = None
     if env is not None:
-        return env.unwrapped.config if hasattr(env, "unwrapped") else env.config
-    if config is None or isinstance(config, str):
-        return anonloc_env.make_config(config)
+        unwrapped = getattr(env, "unwrapped", env)
+        from_env = getattr(unwrapped, "config", None)
+        if not isinstance(from_env, EnvConfig):
+            raise TypeError(
+                f"env must be an anonloc env (with a .config), got {type(env).__name__}"
+            )
+    if config is None:
+        if from_env is None:
+            raise ValueError(
+                "a policy needs the scenario it will run in, to build its sensor model: pass "
+                "env=<the env> (or config=<its EnvConfig or preset name>)"
+            )
+        return from_env
+    if isinstance(config, str):
+        config = anonloc_env.make_config(config)
     if not isinstance(config, EnvConfig):
         raise TypeError(
             f"config must be an EnvConfig or a preset name, got {type(config).__name__}"
         )
+    if from_env is not None and from_env != config:
+        raise ValueError("env and config describe different scenarios: pass one of them")
     return config
 
 
@@ -91,30 +127,38 @@ def _excitation(spec: str | Excitation | Policy, config: EnvConfig) -> Excitatio
 
 def make_team(
     name: str,
-    config: EnvConfig | str | None = None,
+    env: Any = None,
     n: int | None = None,
     *,
-    env: Any = None,
+    config: EnvConfig | str | None = None,
     mode: str = "corrected",
     excitation: str | Excitation | Policy | None = None,
     **kwargs: Any,
 ) -> Team:
-    """A team of ``n`` robots (default: all of the config's robots) running policy ``name``.
+    """A team of ``n`` robots (default: all of the scenario's robots) running policy ``name``.
+
+    Like SB3's ``PPO(policy, env)``, a policy is built from the env it will run in: its sensor
+    model (camera scale and tilt, noise, misses) comes from that env's config, never from a
+    default.
 
     Args:
         name: a name from :func:`policy_names`.
-        config: what the robots know: an ``EnvConfig``, a preset name, or None (``"default"``).
+        env: the env the robots run in (an ``EnvConfig`` or a preset name is also accepted here).
         n: number of robots in the team.
-        env: take the config from this env instead.
+        config: the scenario, when there is no env: an ``EnvConfig`` or a preset name.
         mode: ``"corrected"`` (default) or ``"faithful"`` (the paper as printed).
-        excitation: the motion between pictures: a name (``still``, ``angular``, ``linear``,
-            ``motion``/``random``), an ``Excitation``, or any policy object. Default: the
-            method's own (``random`` for ``bayes``).
+        excitation: the motion between pictures: a name from
+            :data:`baselines.excitations.EXCITATIONS`, an ``Excitation``, or any policy object.
+            Default: the method's own (``random`` for ``bayes``).
         **kwargs: passed to the localizer (``bayes``: ``threshold``, ``scale_known``).
+
+    Raises:
+        ValueError: an unknown name, mode or excitation, or no scenario given (neither ``env``
+            nor ``config``).
     """
     if name not in POLICIES:
         raise ValueError(f"unknown policy {name!r}; valid: {policy_names()}")
-    cfg = _config(config, env)
+    cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
@@ -123,16 +167,24 @@ def make_team(
 
 def make(
     name: str,
-    config: EnvConfig | str | None = None,
-    *,
     env: Any = None,
+    *,
+    config: EnvConfig | str | None = None,
     mode: str = "corrected",
     excitation: str | Excitation | Policy | None = None,
     **kwargs: Any,
 ) -> BaselinePolicy:
-    """One robot's policy ``name`` (see :func:`make_team` for the arguments)."""
-    make_team(name, config, 1, env=env, mode=mode, excitation=excitation, **kwargs)  # validate
-    return BaselinePolicy(
-        name,
-        lambda: make_team(name, config, 1, env=env, mode=mode, excitation=excitation, **kwargs),
-    )
+    """One robot's policy ``name``, built for ``env`` (see :func:`make_team` for the arguments).
+
+    >>> env = anonloc_env.parallel_env("paper-motion")
+    >>> policy = make("bayes", env)
+    >>> make("bayes")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: a policy needs the scenario it will run in, ...: pass env=<the env> (or config=...)
+    """
+
+    def build() -> Team:
+        return make_team(name, env, 1, config=config, mode=mode, excitation=excitation, **kwargs)
+
+    return BaselinePolicy(name, build, build())

@@ -7,7 +7,8 @@ choices never depend on another's). ``commands(step, dt)`` returns physical comm
 Defaults follow section III of the paper: turn in place counter-clockwise at up to 9 deg/s
 (angular), drive straight at up to 0.1 units/s (linear), or random motion with speeds in
 [0.1, 0.5] units/s and turn rates in [-20, 20] deg/s changed at random times every 0 to 3 s, turning
-in place at a random rate after a bump (motion).
+in place at a random rate after a bump (motion). ``swarm`` shares one random command stream
+between all robots, each blending in a fraction ``jitter`` of its own draw.
 """
 
 from __future__ import annotations
@@ -203,11 +204,80 @@ class RandomMotion(BumpEscape):
 _NONE = np.zeros(0, dtype=np.int64)  # no robot: skips np.flatnonzero on the common path
 
 
+#: Jitter of the ``swarm`` excitation when named without one.
+SWARM_JITTER = 0.05
+
+
+class SwarmMotion(BumpEscape):
+    """Random motion shared by all robots, with a per-robot jitter.
+
+    The paper's random motion draws each robot's speed, turn rate and change times independently,
+    which is what lets a robot tell its own motion from the others'. A swarm often moves as one: a
+    shared command stream with small differences. One generator seeded by ``common_seed`` draws
+    the shared speeds, turn rates and change times; each robot blends in its own draw from the same
+    distribution by a factor ``jitter``: ``v_i = v_shared + jitter * (v_own_i - v_shared)``, so
+    ``jitter = 0`` gives identical commands and ``jitter = 1`` independent values (with shared
+    change times). After a bump a robot still turns away on its own, as in the paper.
+
+    Robots that must share the stream but are driven by separate instances (one policy per robot)
+    share it by being given the same ``common_seed`` (the CLI uses the episode seed).
+
+    Args:
+        jitter: how much of each robot's own random draw is blended in, in [0, 1].
+        common_seed: seeds the shared command stream (e.g. the episode seed).
+        settings: speeds, turn rates and change times (the paper's by default).
+    """
+
+    def __init__(
+        self,
+        jitter: float = SWARM_JITTER,
+        common_seed: int = 0,
+        settings: RandomSettings | None = None,
+    ) -> None:
+        super().__init__()
+        if not 0.0 <= jitter <= 1.0:
+            raise ValueError(f"swarm jitter must be in [0, 1], got {jitter}")
+        self.jitter = jitter
+        self.common_seed = common_seed
+        self.settings = settings or RandomSettings()
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        s = self.settings
+        # A stream of its own, apart from the env's and the robots' generators.
+        self.common = np.random.default_rng([self.common_seed, 0x5_3A4D])
+        self.v = self._blend(*s.speed)
+        self.w = self._blend(-s.turn, s.turn)
+        self.v_timer = self.common.uniform(0.0, s.change_after)
+        self.w_timer = self.common.uniform(0.0, s.change_after)
+        self._reset_escapes()
+
+    def _blend(self, low: float, high: float) -> np.ndarray:
+        shared = self.common.uniform(low, high)
+        own = self._draw(low, high, np.arange(self.n))
+        return np.asarray(shared + self.jitter * (own - shared))
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        s = self.settings
+        self._start_escapes(step)
+        self.v_timer -= dt
+        self.w_timer -= dt
+        if self.v_timer <= 0.0:
+            self.v = self._blend(*s.speed)
+            self.v_timer = self.common.uniform(0.0, s.change_after)
+        if self.w_timer <= 0.0:
+            self.w = self._blend(-s.turn, s.turn)
+            self.w_timer = self.common.uniform(0.0, s.change_after)
+        return self._apply_escapes(dt, self.v, self.w)
+
+
 EXCITATIONS = {
     "still": Still,
     "angular": Angular,
     "linear": Linear,
     "motion": RandomMotion,
     "random": RandomMotion,
+    "swarm": SwarmMotion,
 }
-"""Excitations by name. ``random`` and ``motion`` are the same random motion."""
+"""Excitations by name. ``random`` and ``motion`` are the same random motion; ``swarm`` is
+:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0)."""

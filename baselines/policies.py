@@ -137,12 +137,13 @@ class BaselinePolicy:
     Args:
         name: the policy's name (for display).
         build: makes a team of one robot.
+        first: the first team, if already built (else ``build()`` makes it).
     """
 
-    def __init__(self, name: str, build: Callable[[], Team]) -> None:
+    def __init__(self, name: str, build: Callable[[], Team], first: Team | None = None) -> None:
         self.name = name
         self._build = build
-        self._teams: list[Team] = [build()]
+        self._teams: list[Team] = [build() if first is None else first]
         self._seed: int | np.random.SeedSequence | None = None
 
     def reset(self, seed: int | np.random.SeedSequence | None = None) -> None:

@@ -176,13 +176,50 @@ def test_runner_records_every_robot_picture_and_listener() -> None:
 
 def test_bad_policy_requests_are_refused() -> None:
     with pytest.raises(ValueError, match="unknown policy 'bays'"):
-        baselines.make("bays")
+        baselines.make("bays", config="default")
     with pytest.raises(ValueError, match="needs detected headings"):
         baselines.make("angular", anonloc_env.make_config(camera={"orientation": False}))
     with pytest.raises(ValueError, match="no faithful mode"):
-        baselines.make("bayes", mode="faithful")
+        baselines.make("bayes", config="default", mode="faithful")
     with pytest.raises(ValueError, match="unknown excitation"):
-        baselines.make("bayes", excitation="dance")
+        baselines.make("bayes", config="default", excitation="dance")
+
+
+@pytest.mark.parametrize("name", baselines.policy_names())
+def test_a_policy_without_its_scenario_is_an_error(name: str) -> None:
+    """No silent default sensor model: make and make_team both say to pass env= or config=."""
+    for build in (baselines.make, baselines.make_team):
+        with pytest.raises(ValueError, match=r"pass env=.*or config="):
+            build(name)
+
+
+def test_a_policy_takes_its_sensor_model_from_the_env_it_is_given() -> None:
+    env = anonloc_env.parallel_env(n_robots=3, camera={"scale": 37.0, "pixel_noise": 0.5})
+    for team in (
+        baselines.make_team("bayes", env),
+        baselines.make_team("bayes", config=env.config),
+        baselines.make_team("bayes", env.config),
+    ):
+        assert team.config is env.config
+        assert team.localizer.model.scale == pytest.approx(37.0)
+        assert team.localizer.model.pixel_noise == 0.5
+    with pytest.raises(ValueError, match="different scenarios"):
+        baselines.make_team("bayes", env, config="default")
+    with pytest.raises(TypeError, match="env must be an anonloc env"):
+        baselines.make_team("bayes", object())
+
+
+def test_the_swarm_excitation_is_a_baseline_excitation() -> None:
+    """``excitation="swarm"`` works through baselines.make (it used to live in the CLI only)."""
+    env = anonloc_env.parallel_env(n_robots=3)
+    team = baselines.make_team("bayes", env, excitation="swarm")
+    observations, _ = env.reset(seed=0)
+    team.reset([0, 1, 2])
+    actions = team.act([observations[a] for a in env.agents])
+    assert actions.shape == (3, 2)
+    # Jitter 0.05: the robots' speeds differ, but by at most 5 % of the speed range.
+    spread = np.ptp(actions[:, 0]) * env.config.robot.v_max
+    assert 0.0 < spread <= 0.05 * 0.4 + 1e-9
 
 
 def test_presets_reproduce_the_papers_second_row() -> None:

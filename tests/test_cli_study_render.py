@@ -30,7 +30,7 @@ def test_a_study_sweep_writes_png_svg_csv(tmp_path: Path) -> None:
 def test_the_swarm_excitation_gives_identical_commands_without_jitter() -> None:
     import numpy as np
 
-    from anonloc_cli.swarm import SwarmMotion
+    from baselines.excitations import SwarmMotion
     from baselines.observations import Step
 
     swarm = SwarmMotion(0.0, common_seed=3)
