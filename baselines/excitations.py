@@ -16,14 +16,23 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from baselines.observations import Step
 
+if TYPE_CHECKING:
+    from baselines.localizers import Localizer
+
 
 class Excitation:
-    """Base class: holds one generator per robot."""
+    """Base class of the motions between pictures: holds one generator per robot.
+
+    A subclass implements :meth:`commands` (compulsory) and may override :meth:`reset` (to draw
+    its per-episode state) and :meth:`on_picture` (to read what the robots now believe, as an
+    active-identification excitation does).
+    """
 
     def __init__(self) -> None:
         self.rngs: list[np.random.Generator] = []
@@ -36,6 +45,10 @@ class Excitation:
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         """Start an episode; ``rngs`` has one generator per robot."""
         self.rngs = list(rngs)
+
+    def on_picture(self, step: Step, localizer: Localizer) -> None:
+        """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
+        :meth:`commands`. The default does nothing."""
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(v, w)`` for every robot at this step."""
@@ -269,6 +282,47 @@ class SwarmMotion(BumpEscape):
             self.w = self._blend(-s.turn, s.turn)
             self.w_timer = self.common.uniform(0.0, s.change_after)
         return self._apply_escapes(dt, self.v, self.w)
+
+
+class SwarmDuty(Excitation):
+    """Swarm duty: every robot follows one shared command stream and may only add a bounded
+    deviation of its own.
+
+    The shared stream is :class:`SwarmMotion` with jitter 0 (identical commands for all robots,
+    each still turning away after a bump). The robot's own motion comes from ``deviation``, any
+    excitation (or a learned policy), scaled by ``budget``::
+
+        v = v_shared + budget * v_own,   w = w_shared + budget * w_own
+
+    With the own commands within the robot's limits, the deviation is at most ``budget * v_max``
+    and ``budget * omega_max`` (the env then clips the sum to the limits).
+
+    Args:
+        deviation: the robots' own excitation.
+        budget: fraction of ``v_max`` and ``omega_max`` the deviation may use, in [0, 1].
+        common_seed: seeds the shared stream (robots of one episode must share it).
+    """
+
+    def __init__(self, deviation: Excitation, budget: float = 0.2, common_seed: int = 0) -> None:
+        super().__init__()
+        if not 0.0 <= budget <= 1.0:
+            raise ValueError(f"budget must be in [0, 1], got {budget}")
+        self.deviation = deviation
+        self.budget = budget
+        self.shared = SwarmMotion(0.0, common_seed)
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.shared.reset(rngs)
+        self.deviation.reset(rngs)
+
+    def on_picture(self, step: Step, localizer: Localizer) -> None:
+        self.deviation.on_picture(step, localizer)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v_shared, w_shared = self.shared.commands(step, dt)
+        v_own, w_own = self.deviation.commands(step, dt)
+        return v_shared + self.budget * v_own, w_shared + self.budget * w_own
 
 
 EXCITATIONS = {

@@ -18,7 +18,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer
-from baselines.observations import MotionLog, read_step
+from baselines.observations import MotionLog, Step, read_step
 
 
 @runtime_checkable
@@ -91,8 +91,10 @@ class Team:
         self.intervals: list[Interval] = []
         """Each interval between pictures seen so far (own motion, as the robots measured it)."""
 
-    def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
-        """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
+    def observe(self, observations: Sequence[Mapping[str, Any]]) -> Step:
+        """Take in one step of the robots' observations (in robot order): the motion log and, at
+        a new picture, every localizer and then the excitation's :meth:`~Excitation.on_picture`.
+        """
         step = read_step(observations)
         interval = self.log.observe(step)
         if step.new_picture:
@@ -104,11 +106,22 @@ class Team:
                     step.rows, None if first else interval, step.interval, self.excitation
                 )
             self.pictures_seen += 1
+            self.excitation.on_picture(step, self.localizer)
+        return step
+
+    def commanded(self, actions: np.ndarray) -> None:
+        """Record the actions ``(R, 2)`` sent for this step (the contact model reads the
+        commanded speed)."""
+        self.log.speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+
+    def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
+        """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
+        step = self.observe(observations)
         if hasattr(self.excitation, "observations"):  # a policy as excitation needs them
             self.excitation.observations = list(observations)
         v, w = self.excitation.commands(step, self.config.dt)
         actions = to_actions(v, w, self.config.robot)
-        self.log.speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+        self.commanded(actions)
         return actions
 
     def _pick(self, listener: str | None) -> Localizer:

@@ -1,0 +1,162 @@
+"""The robots of one env driven by one shared learning policy: conditions, commands, rewards.
+
+A :class:`Crew` owns one :class:`~anonloc_env.env.AnonLocEnv` and a :class:`baselines.Team`
+whose localizer is every robot's own ``bayes`` identifier. The policy's actions become commands
+through the condition's excitation (:func:`condition_excitation`): in ``free`` motion the action
+is the command; on ``swarm`` duty every robot follows one shared command stream and the action
+is only a deviation of at most ``budget`` of the robot's limits. The crew returns the policy
+observations of :mod:`agents.observation` and the reward of :func:`Crew.step`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from agents.observation import BeliefObserver, information, true_rows
+from anonloc_env.actions import to_actions, to_commands
+from anonloc_env.env import AnonLocEnv
+from anonloc_env.rewards import energy
+from baselines.excitations import Excitation, SwarmDuty
+from baselines.localizers import BayesLocalizer
+from baselines.observations import Step
+from baselines.policies import Team
+
+CONDITIONS = ("free", "swarm")
+
+
+class ExternalCommands(Excitation):
+    """An excitation whose commands are set from outside (a learning policy's actions)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.v = np.zeros(0)
+        self.w = np.zeros(0)
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.v = np.zeros(self.n)
+        self.w = np.zeros(self.n)
+
+    def set(self, v: np.ndarray, w: np.ndarray) -> None:
+        """The commands ``(R,)`` (m/s, rad/s) of the next step."""
+        self.v, self.w = v, w
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.v, self.w
+
+
+def condition_excitation(
+    condition: str, own: Excitation, budget: float, common_seed: int = 0
+) -> Excitation:
+    """The excitation of a condition: ``own`` itself (``free``), or ``own`` as the bounded
+    deviation from a shared command stream (``swarm``, see
+    :class:`baselines.excitations.SwarmDuty`)."""
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
+    if condition == "free":
+        return own
+    return SwarmDuty(own, budget=budget, common_seed=common_seed)
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """One step of a crew: the policy observations, rewards and ground-truth scores."""
+
+    observation: dict[str, np.ndarray]
+    reward: np.ndarray
+    truncated: bool
+    correct: np.ndarray  # (R,) decided on the true row at this step's newest picture
+    present: np.ndarray  # (R,) in that picture
+    new_picture: bool
+    energy: np.ndarray  # (R,) wheel travel in this step (m)
+
+
+class Crew:
+    """The R robots of one env, each with its own identifier, acting through one policy.
+
+    Args:
+        env: the environment (its reward function gives the energy term: use
+            ``anonloc_env.EnergyCost`` so that the identity information is not computed twice).
+        condition: ``"free"`` or ``"swarm"``.
+        budget: on swarm duty, the largest deviation as a fraction of ``v_max`` and
+            ``omega_max``.
+        information_weight: reward per nat of information gained about the robot's identity.
+    """
+
+    def __init__(
+        self,
+        env: AnonLocEnv,
+        condition: str = "free",
+        budget: float = 0.2,
+        information_weight: float = 1.0,
+    ) -> None:
+        self.env = env
+        config = env.config
+        self.config = config
+        self.agents = list(env.possible_agents)
+        self.n = config.n_robots
+        self.condition = condition
+        self.budget = budget
+        self.information_weight = information_weight
+        self.capacity = int(env.camera.capacity)
+        self.localizer = BayesLocalizer(config, self.n)
+        self.external = ExternalCommands()
+        excitation = condition_excitation(condition, self.external, budget)
+        self.team = Team(config, self.localizer, excitation)
+        self.observer = BeliefObserver(self.localizer, self.capacity)
+        self._scale = np.array([config.robot.v_max, config.robot.omega_max])
+        self._step: Step | None = None
+        self._belief_true = np.zeros(self.n)
+
+    def reset(self, seed: int | None) -> dict[str, np.ndarray]:
+        """Start an episode: the env is reset with ``seed``; the robots' own random streams
+        (the swarm's shared stream included) are drawn from the env's generator."""
+        observations, infos = self.env.reset(seed=seed)
+        entropy = self.env.rng.integers(0, 2**63, size=2)
+        if isinstance(self.team.excitation, SwarmDuty):
+            self.team.excitation.shared.common_seed = int(entropy[0])
+        self.team.reset(np.random.SeedSequence(int(entropy[1])).spawn(self.n))
+        self.observer.reset()
+        step = self.team.observe([observations[a] for a in self.agents])
+        self._step = step
+        if step.new_picture:
+            self.observer.on_picture(step)
+        self._belief_true = self.observer.true_belief(true_rows(infos, self.agents))
+        return self.observer.observe(step, first=True)
+
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Apply the policy's actions ``(R, 2)`` (in [-1, 1]; clipped) for one control step."""
+        assert self._step is not None, "reset() first"
+        own = np.clip(np.asarray(actions, np.float64), -1.0, 1.0) * self._scale
+        self.external.set(own[:, 0], own[:, 1])
+        v, w = self.team.excitation.commands(self._step, self.config.dt)
+        env_actions = to_actions(v, w, self.config.robot)
+        self.team.commanded(env_actions)
+        self.observer.last_command[:] = env_actions
+        observations, rewards, _, truncations, infos = self.env.step(
+            dict(zip(self.agents, env_actions, strict=True))
+        )
+        step = self.team.observe([observations[a] for a in self.agents])
+        self._step = step
+        energy_reward = np.fromiter(rewards.values(), np.float64, self.n)
+        reward = energy_reward.copy()
+        truth = true_rows(infos, self.agents)
+        if step.new_picture:
+            self.observer.on_picture(step)
+            belief = self.observer.true_belief(truth)
+            reward += self.information_weight * information(self._belief_true, belief)
+            self._belief_true = belief
+        estimate = self.localizer.estimate
+        present = truth >= 0
+        return StepResult(
+            observation=self.observer.observe(step),
+            reward=reward,
+            truncated=bool(truncations[self.agents[0]]),
+            correct=present & (estimate == truth),
+            present=present,
+            new_picture=step.new_picture,
+            energy=energy(self.config, *to_commands(env_actions, self.config.robot)),
+        )

@@ -1,0 +1,185 @@
+"""K copies of the env as one SB3 ``VecEnv`` in which every robot is a slot.
+
+Slot ``k * N + i`` is robot ``i`` of copy ``k``; one policy acts for every slot (parameter
+sharing: identical robots, one controller). Observations are the belief-annotated dicts of
+:mod:`agents.observation`, batched as ``(K * N, ...)`` arrays.
+
+What it guarantees (each is tested):
+
+* **Truncation is reported as truncation.** The env never terminates; when its ``max_cycles``
+  run out, every slot of that copy is ``done`` with ``infos[slot]["TimeLimit.truncated"] = True``
+  and ``infos[slot]["terminal_observation"]``, so PPO bootstraps from the value of the last
+  observation instead of treating the time limit as the end of the task. The copy is reset at
+  once and the returned observation is the new episode's first, as SB3 expects.
+* **Seeding goes through reset.** ``seed(s)`` (which ``PPO(seed=s)`` calls) gives copy ``k`` the
+  ``k``-th child of ``SeedSequence(s)`` at its next reset; afterwards each copy continues its own
+  env generator, so two runs with one seed are identical and copies never share random state.
+* **Batched arrays.** Each copy's robots are updated by one vectorised identifier and one
+  vectorised feature computation; the only Python loop is over the K copies.
+
+Each slot's ``infos`` also carry ``"episode": {"r", "l"}`` at the end of an episode (the format
+of SB3's ``Monitor``, so training logs show returns), and the per-step ground-truth scores
+``"correct"`` and ``"present"`` for evaluation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+from agents.crew import Crew
+from agents.observation import policy_observation_space
+from anonloc_env.config import EnvConfig
+from anonloc_env.env import AnonLocEnv
+from anonloc_env.rewards import EnergyCost
+
+
+class AnonLocVecEnv(VecEnv):
+    """The robots of ``n_envs`` copies of one scenario as one ``VecEnv`` (see the module doc).
+
+    Args:
+        config: the scenario.
+        n_envs: number K of env copies (each with the config's N robots).
+        condition: ``"free"`` or ``"swarm"`` (see :mod:`agents.crew`).
+        budget: on swarm duty, the largest deviation as a fraction of the robot's limits.
+        information_weight: reward per nat of information about the robot's identity (the
+            energy term's weight is the config's ``reward.energy_weight``).
+        make_env: builds one copy from the config (default: ``AnonLocEnv`` with the
+            ``EnergyCost`` reward; the information term is computed by the crew).
+    """
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        n_envs: int = 1,
+        condition: str = "free",
+        budget: float = 0.2,
+        information_weight: float = 1.0,
+        make_env: Callable[[EnvConfig], AnonLocEnv] | None = None,
+    ) -> None:
+        if not isinstance(n_envs, (int, np.integer)) or isinstance(n_envs, bool) or n_envs < 1:
+            raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
+        build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
+        self.config = config
+        self.crews = [
+            Crew(build(config), condition, budget, information_weight) for _ in range(n_envs)
+        ]
+        self.n_robots = config.n_robots
+        self.n_envs = int(n_envs)
+        capacity = self.crews[0].capacity
+        self.render_mode = None
+        super().__init__(
+            self.n_envs * self.n_robots,
+            policy_observation_space(capacity),
+            spaces.Box(-1.0, 1.0, (2,), np.float32),
+        )
+        self._copy_seeds: list[int | None] = [None] * self.n_envs
+        self._actions: np.ndarray | None = None
+        self._returns = np.zeros(self.num_envs)
+        self._lengths = np.zeros(self.num_envs, np.int64)
+
+    # -- seeding and reset ------------------------------------------------------------------------
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
+        """Seed every copy at its next reset: copy k gets the k-th child of
+        ``SeedSequence(seed)`` (fresh entropy if None). Returns one entry per slot."""
+        children = np.random.SeedSequence(seed).spawn(self.n_envs)
+        self._copy_seeds = [int(c.generate_state(1, np.uint64)[0]) for c in children]
+        return [s for s in self._copy_seeds for _ in range(self.n_robots)]
+
+    def reset(self) -> dict[str, np.ndarray]:
+        parts = [crew.reset(seed) for crew, seed in zip(self.crews, self._copy_seeds, strict=True)]
+        self._copy_seeds = [None] * self.n_envs
+        self._reset_seeds()
+        self._returns[:] = 0.0
+        self._lengths[:] = 0
+        return _stack(parts)
+
+    # -- stepping ---------------------------------------------------------------------------------
+    def step_async(self, actions: np.ndarray) -> None:
+        actions = np.asarray(actions, np.float64).reshape(self.num_envs, 2)
+        if not np.isfinite(actions).all():
+            bad = int(np.flatnonzero(~np.isfinite(actions).all(axis=1))[0])
+            raise ValueError(f"actions must be finite; slot {bad} got {actions[bad].tolist()}")
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        assert self._actions is not None, "step_async() first"
+        n = self.n_robots
+        parts: list[dict[str, np.ndarray]] = []
+        rewards = np.empty(self.num_envs, np.float32)
+        dones = np.zeros(self.num_envs, bool)
+        infos: list[dict[str, Any]] = []
+        for k, crew in enumerate(self.crews):
+            slots = slice(k * n, (k + 1) * n)
+            result = crew.step(self._actions[slots])
+            rewards[slots] = result.reward
+            self._returns[slots] += result.reward
+            self._lengths[slots] += 1
+            copy_infos: list[dict[str, Any]] = [
+                {"correct": bool(c), "present": bool(p)}
+                for c, p in zip(result.correct, result.present, strict=True)
+            ]
+            observation = result.observation
+            if result.truncated:
+                dones[slots] = True
+                terminal = result.observation
+                for i, info in enumerate(copy_infos):
+                    info["TimeLimit.truncated"] = True
+                    info["terminal_observation"] = {key: v[i] for key, v in terminal.items()}
+                    info["episode"] = {
+                        "r": float(self._returns[k * n + i]),
+                        "l": int(self._lengths[k * n + i]),
+                    }
+                self._returns[slots] = 0.0
+                self._lengths[slots] = 0
+                observation = crew.reset(None)
+            parts.append(observation)
+            infos.extend(copy_infos)
+        self._actions = None
+        return _stack(parts), rewards, dones, infos
+
+    def close(self) -> None:
+        for crew in self.crews:
+            crew.env.close()
+
+    # -- attribute access (the VecEnv interface); slots of one copy share its env ---------------
+    def _copies(self, indices: VecEnvIndices) -> list[int]:
+        if indices is None:
+            slots: Sequence[int] = range(self.num_envs)
+        elif isinstance(indices, int):
+            slots = [indices]
+        else:
+            slots = list(indices)
+        return [slot // self.n_robots for slot in slots]
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self.crews[k].env, attr_name) for k in self._copies(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        for k in sorted(set(self._copies(indices))):
+            setattr(self.crews[k].env, attr_name, value)
+
+    def env_method(
+        self,
+        method_name: str,
+        *method_args: Any,
+        indices: VecEnvIndices = None,
+        **method_kwargs: Any,
+    ) -> list[Any]:
+        return [
+            getattr(self.crews[k].env, method_name)(*method_args, **method_kwargs)
+            for k in self._copies(indices)
+        ]
+
+    def env_is_wrapped(self, wrapper_class: type, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._copies(indices)]
+
+
+def _stack(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    if len(parts) == 1:
+        return parts[0]
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
