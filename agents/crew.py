@@ -25,6 +25,10 @@ from baselines.observations import Step
 from baselines.policies import Team
 
 CONDITIONS = ("free", "swarm")
+REWARDS = ("log_belief", "information")
+#: The identity term of the ``log_belief`` reward is floored here (nats: log 1e-3 = -6.9), so that
+#: one robot's bad picture cannot dominate a batch.
+LOG_BELIEF_FLOOR = 1e-3
 
 
 class ExternalCommands(Excitation):
@@ -83,7 +87,12 @@ class Crew:
         condition: ``"free"`` or ``"swarm"``.
         budget: on swarm duty, the largest deviation as a fraction of ``v_max`` and
             ``omega_max``.
-        information_weight: reward per nat of information gained about the robot's identity.
+        information_weight: weight of the identity term of the reward (per nat).
+        reward: the identity term, at each picture: ``log_belief``, the log of the belief the
+            robot gives its true row (floored at ``LOG_BELIEF_FLOOR``), so that every picture
+            spent unsure costs what is still unknown; or ``information``, the nats gained since
+            the previous picture (the env's ``InformationGain``; it telescopes, so only the
+            discount rewards being quick).
     """
 
     def __init__(
@@ -92,7 +101,11 @@ class Crew:
         condition: str = "free",
         budget: float = 0.2,
         information_weight: float = 1.0,
+        reward: str = "log_belief",
     ) -> None:
+        if reward not in REWARDS:
+            raise ValueError(f"reward must be one of {list(REWARDS)}, got {reward!r}")
+        self.reward = reward
         self.env = env
         config = env.config
         self.config = config
@@ -119,7 +132,7 @@ class Crew:
         if isinstance(self.team.excitation, SwarmDuty):
             self.team.excitation.shared.common_seed = int(entropy[0])
         self.team.reset(np.random.SeedSequence(int(entropy[1])).spawn(self.n))
-        self.observer.reset()
+        self.observer.reset(self.team.excitation.rngs)
         step = self.team.observe([observations[a] for a in self.agents])
         self._step = step
         if step.new_picture:
@@ -130,12 +143,13 @@ class Crew:
     def step(self, actions: np.ndarray) -> StepResult:
         """Apply the policy's actions ``(R, 2)`` (in [-1, 1]; clipped) for one control step."""
         assert self._step is not None, "reset() first"
-        own = np.clip(np.asarray(actions, np.float64), -1.0, 1.0) * self._scale
+        clipped = np.clip(np.asarray(actions, np.float64), -1.0, 1.0)
+        own = clipped * self._scale
         self.external.set(own[:, 0], own[:, 1])
         v, w = self.team.excitation.commands(self._step, self.config.dt)
         env_actions = to_actions(v, w, self.config.robot)
         self.team.commanded(env_actions)
-        self.observer.last_command[:] = env_actions
+        self.observer.last_command[:] = clipped  # what the policy asked (before any duty)
         observations, rewards, _, truncations, infos = self.env.step(
             dict(zip(self.agents, env_actions, strict=True))
         )
@@ -147,7 +161,11 @@ class Crew:
         if step.new_picture:
             self.observer.on_picture(step)
             belief = self.observer.true_belief(truth)
-            reward += self.information_weight * information(self._belief_true, belief)
+            if self.reward == "log_belief":
+                identity = np.log(np.maximum(belief, LOG_BELIEF_FLOOR))
+            else:
+                identity = information(self._belief_true, belief)
+            reward += self.information_weight * identity
             self._belief_true = belief
         estimate = self.localizer.estimate
         present = truth >= 0

@@ -9,7 +9,7 @@ fixed-shape float32 arrays with a leading robot axis (D = the env's rows per pic
 |---|---|---|
 | `rows` | `(R, D, 6)` | per row of the newest picture (see below) |
 | `mask` | `(R, D)` | 1 where the row holds a detection, else 0 |
-| `own` | `(R, 10)` | the robot's own state (see below) |
+| `own` | `(R, 12)` | the robot's own state (see below) |
 
 The 6 row features: `(du, dv)`, the row's position relative to the row the robot believes most
 is itself, in metres (image units over the camera scale), turned into that row's detected
@@ -17,9 +17,15 @@ heading frame when headings are detected; `(cos, sin)` of the row's detected hea
 that row's (0, 0 without headings); the robot's belief that the row is itself; 1 on the
 believed row.
 
-The 10 own features: own odometry since the picture `(dx, dy, dphi)` (m, m, rad); time since the
+The 12 own features: own odometry since the picture `(dx, dy, dphi)` (m, m, rad); time since the
 picture over the picture interval; bumper; largest belief; belief "not in the picture";
-normalised entropy of the belief; the last command sent `(v / v_max, w / omega_max)`.
+normalised entropy of the belief; the last command the policy asked `(v / v_max, w / omega_max)`;
+and two dice, uniform in [-1, 1], thrown by the robot's own generator at every picture.
+
+The dice are how identical robots running one policy can choose different motions: a policy that
+sees nothing but the same picture would otherwise move every robot alike, the one thing that keeps
+them anonymous. They come from each robot's own generator (seeded like every excitation's), so an
+episode is reproducible and robots share no random state.
 
 The row features change only at a new picture and are computed then; the ``own`` features every
 step. Everything is computed from the robots' observations and their own commands: no ground
@@ -39,7 +45,7 @@ from baselines.localizers import BayesLocalizer
 from baselines.observations import Step
 
 ROW_FEATURES = 6
-OWN_FEATURES = 10
+OWN_FEATURES = 12
 #: Beliefs are floored here before taking logs (the reward's information term).
 BELIEF_FLOOR = 1e-12
 
@@ -78,9 +84,15 @@ class BeliefObserver:
         self.mask = np.zeros((self.n, capacity), np.float32)
         self.summary = np.zeros((self.n, 3), np.float32)  # largest belief, missing, entropy
         self.last_command = np.zeros((self.n, 2), np.float32)
+        self.dice = np.zeros((self.n, 2), np.float32)
+        self.rngs: list[np.random.Generator] = []
 
-    def reset(self) -> None:
-        """Start an episode."""
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        """Start an episode; ``rngs`` are the robots' own generators (they throw the dice)."""
+        if len(rngs) != self.n:
+            raise ValueError(f"rngs must have one generator per robot ({self.n}), got {len(rngs)}")
+        self.rngs = list(rngs)
+        self.dice[:] = 0.0
         self.since_picture = 0.0
         self.rows[:] = 0.0
         self.mask[:] = 0.0
@@ -88,7 +100,9 @@ class BeliefObserver:
         self.last_command[:] = 0.0
 
     def on_picture(self, step: Step) -> None:
-        """Recompute the row features after the localizer took in ``step``'s picture."""
+        """Recompute the row features after the localizer took in ``step``'s picture, and throw
+        the dice."""
+        self.dice[:] = [rng.uniform(-1.0, 1.0, 2) for rng in self.rngs]
         belief = self.localizer.belief
         rows = step.rows
         count = min(len(rows), self.capacity, belief.shape[1])
@@ -141,6 +155,7 @@ class BeliefObserver:
         own[:, 4] = step.bumper
         own[:, 5:8] = self.summary
         own[:, 8:10] = self.last_command
+        own[:, 10:12] = self.dice
         return {"rows": self.rows.copy(), "mask": self.mask.copy(), "own": own}
 
     def true_belief(self, true_rows: np.ndarray) -> np.ndarray:

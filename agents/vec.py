@@ -46,8 +46,9 @@ class AnonLocVecEnv(VecEnv):
         n_envs: number K of env copies (each with the config's N robots).
         condition: ``"free"`` or ``"swarm"`` (see :mod:`agents.crew`).
         budget: on swarm duty, the largest deviation as a fraction of the robot's limits.
-        information_weight: reward per nat of information about the robot's identity (the
-            energy term's weight is the config's ``reward.energy_weight``).
+        information_weight: weight of the identity term of the reward (the energy term's weight
+            is the config's ``reward.energy_weight``).
+        reward: the identity term: ``log_belief`` or ``information`` (see :class:`Crew`).
         make_env: builds one copy from the config (default: ``AnonLocEnv`` with the
             ``EnergyCost`` reward; the information term is computed by the crew).
     """
@@ -59,6 +60,7 @@ class AnonLocVecEnv(VecEnv):
         condition: str = "free",
         budget: float = 0.2,
         information_weight: float = 1.0,
+        reward: str = "log_belief",
         make_env: Callable[[EnvConfig], AnonLocEnv] | None = None,
     ) -> None:
         if not isinstance(n_envs, (int, np.integer)) or isinstance(n_envs, bool) or n_envs < 1:
@@ -66,7 +68,8 @@ class AnonLocVecEnv(VecEnv):
         build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
         self.config = config
         self.crews = [
-            Crew(build(config), condition, budget, information_weight) for _ in range(n_envs)
+            Crew(build(config), condition, budget, information_weight, reward)
+            for _ in range(n_envs)
         ]
         self.n_robots = config.n_robots
         self.n_envs = int(n_envs)

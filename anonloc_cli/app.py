@@ -218,13 +218,13 @@ def bench(
         for s in resolved:
             for name in names:
                 policies.check_team(name, s.config, mode=mode.value, excitation_spec=excitation)
+        entries = [command.Entry(name, name, excitation) for name in names]
         status = command.main(
             resolved,
-            names,
+            entries,
             seeds,
             out,
             mode=mode.value,
-            excitation=excitation,
             pictures=pictures,
             backend=backend.value,
             address=address,
@@ -336,6 +336,117 @@ def frame(
         scenarios.check_preset(preset)
         status = demo(
             ["--preset", preset, "--seed", str(seed), "--steps", str(steps), "--out", str(out)]
+        )
+    raise typer.Exit(status)
+
+
+@app.command()
+def train(
+    timesteps: Annotated[
+        int, typer.Option(min=1, help="Robot-steps of experience in all (slots x steps).")
+    ] = 200_000,
+    out: Annotated[Path, typer.Option(help="Folder of the runs.")] = Path("runs"),
+    scenario: Annotated[
+        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
+    ] = "default",
+    condition: Annotated[
+        str,
+        typer.Option(help="free (the action is the command) or swarm (a bounded deviation)."),
+    ] = "free",
+    budget: Annotated[
+        float, typer.Option(help="On swarm duty: the deviation's share of v_max and omega_max.")
+    ] = 0.2,
+    extractor: Annotated[
+        str, typer.Option(help="Features over the rows: deepsets, attention or flat.")
+    ] = "deepsets",
+    n_envs: Annotated[int, typer.Option(min=1, help="Env copies (slots = copies x robots).")] = 4,
+    seed: Annotated[int, typer.Option(min=0, help="Seeds PPO, torch and every env copy.")] = 0,
+    name: Annotated[
+        str | None, typer.Option(help="Run name (default: scenario-condition-ppo-...-time).")
+    ] = None,
+    resume: Annotated[
+        Path | None,
+        typer.Option(help="Continue this run folder from its newest checkpoint instead."),
+    ] = None,
+    set_: Sets = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Train one excitation policy shared by every robot (SB3 PPO); see docs/agents.md.
+
+    Writes OUT/<run>/config.json, tb/ (TensorBoard), checkpoints/ and agent.zip. Needs the rl
+    extra: pip install torch==2.13.0 && pip install 'anonloc[rl]'.
+    """
+    with _command(verbose):
+        from anonloc_cli import learning
+
+        status = learning.train(
+            timesteps=timesteps,
+            out=out,
+            scenario=scenario,
+            sets=set_ or [],
+            condition=condition,
+            budget=budget,
+            extractor=extractor,
+            n_envs=n_envs,
+            seed=seed,
+            name=name,
+            resume=resume,
+            quiet=quiet,
+        )
+    raise typer.Exit(status)
+
+
+@app.command(name="eval")
+def evaluate(
+    agent: Annotated[Path, typer.Option(help="A saved agent: agent.zip or its run folder.")],
+    seeds: Annotated[
+        int, typer.Option(min=1, help="Episodes (seeds 0..N-1; training never uses them).")
+    ],
+    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
+    scenario: Annotated[
+        str | None,
+        typer.Option(help="A preset or scenario file (default: the agent's own, as trained)."),
+    ] = None,
+    against: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Excitations to compare with, each run by the bayes policy (repeatable), "
+            "e.g. random."
+        ),
+    ] = None,
+    pictures: Annotated[
+        int | None,
+        typer.Option(min=1, help="Stop each episode after K pictures (default: its end)."),
+    ] = None,
+    set_: Sets = None,
+    backend: BackendOption = Backend.process,
+    address: Address = None,
+    workers: Workers = None,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Evaluate a saved agent (and baseline excitations) as anonloc bench does, plus the
+    pictures until 99 % of the robots present are identified.
+
+    Loading an agent unpickles parts of its file (SB3): only load files you trust.
+    """
+    with _command(verbose):
+        _check_address(backend, address)
+        from anonloc_cli import learning
+
+        status = learning.evaluate(
+            agent=agent,
+            seeds=seeds,
+            out=out,
+            scenario=scenario,
+            sets=set_ or [],
+            against=against or [],
+            pictures=pictures,
+            backend=backend.value,
+            address=address,
+            workers=workers,
+            quiet=quiet,
         )
     raise typer.Exit(status)
 

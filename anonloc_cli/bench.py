@@ -15,6 +15,12 @@ Columns of the output (CSV, or Parquet when the path ends in ``.parquet``):
 | `energy` | wheel travel until that decision (m; empty: never decided) |
 | `energy_total` | wheel travel until the last scored picture (m) |
 | `belief_true` | the belief the robot gave its true row at each picture (a list; JSON in CSV) |
+| `correct_by_picture` | at each picture: decided on its true row (a list) |
+| `present_by_picture` | at each picture: in it (a list) |
+| `energy_by_picture` | at each picture: wheel travel since reset (m; a list) |
+
+The last three give each episode's pictures until 99 % of the robots present are identified
+(:func:`identified_at`), the measure of ``anonloc eval``.
 
 Next to ``PATH``: ``PATH.md`` (summary table and provenance), ``PATH.meta.json`` (provenance) and
 the resumable store ``PATH.units.jsonl``.
@@ -24,8 +30,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from anonloc_cli import jobs, provenance, store, tables
 from anonloc_cli.console import echo
@@ -48,6 +57,9 @@ TYPES = {
     "energy": "float64",
     "energy_total": "float64",
     "belief_true": "list<float64>",
+    "correct_by_picture": "list<bool>",
+    "present_by_picture": "list<bool>",
+    "energy_by_picture": "list<float64>",
 }
 COLUMNS = list(TYPES)
 
@@ -57,30 +69,48 @@ def store_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.units.jsonl")
 
 
+@dataclass(frozen=True)
+class Entry:
+    """One contender: a policy with its excitation and arguments, under a label.
+
+    Attributes:
+        label: the ``policy`` column of its rows.
+        policy: a policy name (see ``baselines.policy_names()``).
+        excitation: the motion between pictures (None: the policy's own).
+        kwargs: more arguments of the policy (``agent``: ``path``); plain JSON values.
+    """
+
+    label: str
+    policy: str
+    excitation: str | None = None
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+
 def units(
     scenarios: Sequence[Scenario],
-    policies: Sequence[str],
+    entries: Sequence[Entry],
     seeds: int,
     *,
     mode: str,
-    excitation: str | None,
     pictures: int | None,
 ) -> list[Unit]:
-    """One unit per (policy, scenario, seed)."""
+    """One unit per (entry, scenario, seed)."""
     return [
         Unit(
             "bench",
             scenario.spec,
-            policy,
+            entry.policy,
             seed,
             {
                 "scenario": scenario.name,
                 "mode": mode,
-                "excitation": excitation,
+                "excitation": entry.excitation,
                 "pictures": pictures,
+                "label": entry.label,
+                "kwargs": entry.kwargs,
             },
         )
-        for policy in policies
+        for entry in entries
         for scenario in scenarios
         for seed in range(seeds)
     ]
@@ -95,7 +125,12 @@ def run_unit(unit: Unit) -> list[dict[str, Any]]:
     p = unit.params
     env = anonloc_env.parallel_env(**unit.scenario)
     team = build_team(
-        unit.policy, env.config, mode=p["mode"], excitation_spec=p["excitation"], seed=unit.seed
+        unit.policy,
+        env.config,
+        mode=p["mode"],
+        excitation_spec=p["excitation"],
+        seed=unit.seed,
+        **p.get("kwargs", {}),
     )
     result = run_episode(env, team, unit.seed, max_pictures=p["pictures"])
     own = [r for r in result.records if r.localizer == ""]
@@ -105,7 +140,7 @@ def run_unit(unit: Unit) -> list[dict[str, Any]]:
         decided = d.picture >= 0
         rows.append(
             {
-                "policy": unit.policy,
+                "policy": p.get("label", unit.policy),
                 "scenario": p["scenario"],
                 "mode": p["mode"],
                 "excitation": p["excitation"],
@@ -118,6 +153,9 @@ def run_unit(unit: Unit) -> list[dict[str, Any]]:
                 "energy": d.energy if decided else None,
                 "energy_total": mine[-1].energy if mine else 0.0,
                 "belief_true": [round(r.belief_true, 6) for r in mine],
+                "correct_by_picture": [bool(r.correct) for r in mine],
+                "present_by_picture": [r.true_index >= 0 for r in mine],
+                "energy_by_picture": [round(r.energy, 6) for r in mine],
             }
         )
     return rows
@@ -155,25 +193,86 @@ def summary(rows: Sequence[dict[str, Any]]) -> tuple[list[str], list[list[str]]]
     return headers, out
 
 
+def identified_at(
+    rows: Sequence[dict[str, Any]], fraction: float = 0.99
+) -> tuple[int | None, float | None]:
+    """One episode's rows (one per robot): the number of pictures until at least ``fraction`` of
+    the robots present in a picture are decided on their true row, and the mean wheel travel per
+    robot until then (m); ``(None, None)`` if that never happens."""
+    correct = np.array([r["correct_by_picture"] for r in rows], bool)
+    present = np.array([r["present_by_picture"] for r in rows], bool)
+    energy = np.array([r["energy_by_picture"] for r in rows], float)
+    if correct.size == 0:
+        return None, None
+    counted = present.sum(axis=0)
+    share = np.where(counted > 0, (correct & present).sum(axis=0) / np.maximum(counted, 1), 0.0)
+    reached = np.flatnonzero(share >= fraction)
+    if len(reached) == 0:
+        return None, None
+    first = int(reached[0])
+    return first + 1, float(energy[:, first].mean())
+
+
+def episode_summary(
+    rows: Sequence[dict[str, Any]], fraction: float = 0.99
+) -> tuple[list[str], list[list[str]]]:
+    """Per (policy, scenario): pictures until ``fraction`` of the robots present are identified,
+    and the energy per robot until then, means over the episodes with 95 % intervals."""
+    episodes: dict[tuple[str, str], dict[int, list[dict[str, Any]]]] = {}
+    for row in rows:
+        key = (row["policy"], row["scenario"])
+        episodes.setdefault(key, {}).setdefault(row["seed"], []).append(row)
+    percent = f"{100 * fraction:g} %"
+    headers = [
+        "policy",
+        "scenario",
+        "episodes",
+        f"reached {percent}",
+        f"pictures to {percent} (95 % CI)",
+        "energy per robot, m (95 % CI)",
+    ]
+    out = []
+    for (policy, scenario), by_seed in episodes.items():
+        results = [identified_at(mine, fraction) for mine in by_seed.values()]
+        reached = [(p, e) for p, e in results if p is not None and e is not None]
+        out.append(
+            [
+                policy,
+                scenario,
+                str(len(results)),
+                f"{100 * len(reached) / len(results):.1f} %",
+                str(tables.mean_interval([p for p, _ in reached])),
+                str(tables.mean_interval([e for _, e in reached])),
+            ]
+        )
+    return headers, out
+
+
 def main(
     scenarios: Sequence[Scenario],
-    policies: Sequence[str],
+    entries: Sequence[Entry],
     seeds: int,
     out: Path,
     *,
     mode: str,
-    excitation: str | None,
     pictures: int | None,
     backend: str,
     address: str | None,
     workers: int | None,
     quiet: bool,
+    identification: bool = False,
 ) -> int:
-    """Run (or resume) the bench and write its rows and summary; the exit status."""
+    """Run (or resume) the bench and write its rows and summary; the exit status.
+
+    ``identification`` adds the table of :func:`episode_summary` (``anonloc eval``).
+    """
     from anonloc_env.presets import config_to_dict
 
     start = time.perf_counter()
-    work = units(scenarios, policies, seeds, mode=mode, excitation=excitation, pictures=pictures)
+    work = units(scenarios, entries, seeds, mode=mode, pictures=pictures)
+    policies = [e.label for e in entries]
+    excitations = sorted({e.excitation or "" for e in entries})
+    excitation = excitations[0] or None if len(excitations) == 1 else ", ".join(excitations)
     report, records = jobs.run_stored(
         work,
         store_path(out),
@@ -201,19 +300,32 @@ def main(
     headers, table = summary(rows)
     wall = time.perf_counter() - start
     tables.show("bench: success at each robot's first decision", headers, table)
-    text = "\n".join(
-        [
-            f"# Bench: {', '.join(policies)} on {', '.join(s.name for s in scenarios)}",
+    lines = [
+        f"# Bench: {', '.join(policies)} on {', '.join(s.name for s in scenarios)}",
+        "",
+        tables.markdown(headers, table),
+        "",
+        f"{len(rows)} rows in `{out.name}`. Success: the robot's first decision was its true "
+        "row (95 % Wilson interval); pictures and energy: mean over the robots that decided "
+        "(95 % normal interval).",
+        "",
+    ]
+    if identification:
+        headers, table = episode_summary(rows)
+        tables.show(
+            "eval: pictures until 99 % of the robots present are identified", headers, table
+        )
+        lines += [
+            "## Pictures until 99 % of the robots present are identified",
             "",
             tables.markdown(headers, table),
             "",
-            f"{len(rows)} rows in `{out.name}`. Success: the robot's first decision was its true "
-            "row (95 % Wilson interval); pictures and energy: mean over the robots that decided "
-            "(95 % normal interval).",
+            "Per episode: the first picture at which at least 99 % of the robots in it are decided "
+            "(belief >= 0.99) on their true row, and the mean wheel travel per robot until then; "
+            "means over the episodes that reached it (95 % normal interval).",
             "",
-            provenance.markdown(record),
         ]
-    )
+    text = "\n".join([*lines, provenance.markdown(record)])
     store.write_text(out.with_suffix(".md"), text)
     echo(f"wrote {out} ({len(rows)} rows) and {out.with_suffix('.md')}")
     echo(f"wall time: {wall:.1f} s ({report.ran} episodes executed, {report.skipped} reused)")

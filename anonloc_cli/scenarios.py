@@ -70,10 +70,15 @@ def resolve(text: str, sets: Sequence[str] = ()) -> Scenario:
             f"unknown scenario {text!r}{hint}; valid: a preset {presets} "
             f"or a scenario file ending in {', '.join(SCENARIO_SUFFIXES)}"
         )
+    return build(name, apply_sets(spec, sets))
+
+
+def apply_sets(spec: dict[str, Any], sets: Sequence[str]) -> dict[str, Any]:
+    """``spec`` with the ``key=value`` overrides ``sets`` merged in (in place; returned)."""
     for item in sets:
         key, value = parse_set(item)
         _merge(spec, key.split("."), value)
-    return build(name, spec)
+    return spec
 
 
 def check_preset(name: str) -> str:

@@ -54,9 +54,14 @@ POLICIES: dict[str, tuple[type[Localizer], str]] = {
 }
 
 
+#: A saved learned agent (``agents``, the ``rl`` extra): the ``bayes`` localizer with the agent's
+#: motion; built with ``path=`` the saved agent.
+AGENT = "agent"
+
+
 def policy_names() -> list[str]:
     """The valid policy names."""
-    return list(POLICIES)
+    return [*POLICIES, AGENT]
 
 
 class PolicyExcitation(Excitation):
@@ -150,19 +155,46 @@ def make_team(
         excitation: the motion between pictures: a name from
             :data:`baselines.excitations.EXCITATIONS`, an ``Excitation``, or any policy object.
             Default: the method's own (``random`` for ``bayes``).
-        **kwargs: passed to the localizer (``bayes``: ``threshold``, ``scale_known``).
+        **kwargs: passed to the localizer (``bayes`` and ``agent``: ``threshold``,
+            ``scale_known``); ``agent`` also takes ``path``, the saved agent (its file is
+            unpickled by SB3: load only files you trust).
 
     Raises:
         ValueError: an unknown name, mode or excitation, or no scenario given (neither ``env``
             nor ``config``).
     """
-    if name not in POLICIES:
+    if name not in policy_names():
         raise ValueError(f"unknown policy {name!r}; valid: {policy_names()}")
     cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
+    if name == AGENT:
+        return _agent_team(cfg, count, mode, excitation, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))
+
+
+def _agent_team(
+    config: EnvConfig,
+    n: int,
+    mode: str,
+    excitation: Any,
+    path: str | None = None,
+    **kwargs: Any,
+) -> Team:
+    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch)."""
+    if path is None:
+        raise ValueError("policy 'agent' needs path=<a saved agent.zip or its run folder>")
+    if excitation is not None:
+        raise ValueError("policy 'agent' moves as it learned: it takes no excitation")
+    try:
+        from agents.policy import load_agent
+    except ImportError as error:
+        raise ImportError(
+            f"policy 'agent' needs the rl extra: pip install 'anonloc[rl]' ({error})"
+        ) from error
+    localizer = BayesLocalizer(config, n, mode, **kwargs)
+    return Team(config, localizer, load_agent(path, config))
 
 
 def make(

@@ -1,0 +1,96 @@
+"""A saved agent as an excitation, so it runs through the same teams, runner and tables as every
+baseline: ``baselines.make("agent", env, path=PATH)``.
+
+Loading an agent unpickles parts of the file inside SB3 (``PPO.load``): load only files you trust.
+Only the path the user names is ever loaded.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.crew import condition_excitation
+from agents.observation import BeliefObserver
+from anonloc_env.camera import Camera
+from anonloc_env.config import EnvConfig
+from baselines.excitations import Excitation
+from baselines.localizers import BayesLocalizer, Localizer
+from baselines.observations import Step
+
+
+class LearnedExcitation(Excitation):
+    """The robots' commands from a trained SB3 policy reading its belief-annotated observations.
+
+    It must be the excitation of a team whose localizer is a ``BayesLocalizer`` (the policy reads
+    that localizer's beliefs, see :mod:`agents.observation`).
+
+    Args:
+        model: a trained SB3 model (``predict(observation, deterministic=True)``).
+        config: the scenario.
+        deterministic: act on the policy's mean action (default) or sample it.
+    """
+
+    def __init__(self, model: Any, config: EnvConfig, deterministic: bool = True) -> None:
+        super().__init__()
+        self.model = model
+        self.config = config
+        self.deterministic = deterministic
+        self.capacity = Camera(config).capacity
+        expected = model.observation_space["mask"].shape[0]
+        if expected != self.capacity:
+            raise ValueError(
+                f"the agent was trained on pictures of {expected} rows; this scenario's have "
+                f"{self.capacity} (train it on this scenario, or one with the same n_robots and "
+                "false positives)"
+            )
+        self._scale = np.array([config.robot.v_max, config.robot.omega_max])
+        self.observer: BeliefObserver | None = None
+        self._first = True
+
+    def reset(self, rngs: Any) -> None:
+        super().reset(rngs)
+        self.observer = None  # rebuilt at the first picture, on the team's localizer
+        self._first = True
+
+    def on_picture(self, step: Step, localizer: Localizer) -> None:
+        if not isinstance(localizer, BayesLocalizer):
+            raise TypeError("a learned agent reads a bayes localizer's beliefs; use policy 'agent'")
+        if self.observer is None:
+            self.observer = BeliefObserver(localizer, self.capacity)
+            self.observer.reset(self.rngs)
+        self.observer.on_picture(step)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        if self.observer is None:
+            raise RuntimeError("the agent acts only after its team's first picture")
+        observation = self.observer.observe(step, first=self._first)
+        self._first = False
+        actions, _ = self.model.predict(observation, deterministic=self.deterministic)
+        actions = np.clip(np.asarray(actions, np.float64), -1.0, 1.0).reshape(self.n, 2)
+        self.observer.last_command[:] = actions  # what the policy asked (before any duty)
+        commands = actions * self._scale
+        return commands[:, 0], commands[:, 1]
+
+
+def load_agent(path: str | Path, config: EnvConfig) -> Excitation:
+    """The excitation of the agent saved at ``path`` (an ``agent.zip`` or its run folder), in the
+    condition it was trained for (``free``, or ``swarm`` duty with its budget)."""
+    from stable_baselines3 import PPO
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "agent.zip"
+    if not path.is_file():
+        raise FileNotFoundError(f"no saved agent at {path}")
+    model = PPO.load(path, device="cpu")
+    record = path.parent / "config.json"
+    train = json.loads(record.read_text())["train"] if record.is_file() else {}
+    own = LearnedExcitation(model, config)
+    condition = train.get("condition", "free")
+    if condition == "free":
+        return own
+    return condition_excitation(condition, own, float(train.get("budget", 0.2)))

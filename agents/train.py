@@ -1,0 +1,281 @@
+"""Train one shared excitation policy with SB3 PPO, readable top to bottom (CleanRL style).
+
+>>> from agents.train import TrainConfig, train
+>>> run = train(TrainConfig(timesteps=4096, out="runs"))  # doctest: +SKIP
+
+A run writes, under ``out/<run name>/``: ``config.json`` (this config and the scenario's full
+``EnvConfig``), ``tb/`` (TensorBoard logs: PPO's losses, episode returns, and the share of
+robots identified), ``checkpoints/`` (``agent_<steps>.zip`` every ``checkpoint_every`` steps),
+and ``agent.zip`` (the final policy). :func:`resume` continues a run from its newest checkpoint,
+with its recorded config.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.crew import CONDITIONS, REWARDS
+from anonloc_env._checks import check_choice, check_number
+from anonloc_env.config import EnvConfig
+from anonloc_env.presets import config_to_dict, make_config
+
+EXTRACTOR_NAMES = ("deepsets", "attention", "flat")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a training run depends on. Every field is recorded in ``config.json``."""
+
+    preset: str = "default"
+    """The scenario's preset (see ``anonloc_env.preset_names()``)."""
+    overrides: dict[str, Any] = field(default_factory=dict)
+    """Keyword overrides of the preset (as ``anonloc_env.make_config`` takes them)."""
+    condition: str = "free"
+    """``free`` (the action is the command) or ``swarm`` (a bounded deviation from a shared
+    command stream)."""
+    budget: float = 0.2
+    """On swarm duty: the largest deviation, as a fraction of ``v_max`` and ``omega_max``."""
+    information_weight: float = 1.0
+    """Weight of the identity term of the reward."""
+    reward: str = "log_belief"
+    """The identity term: ``log_belief`` (log of the belief in the true row, at every picture)
+    or ``information`` (nats gained since the previous picture); see :class:`agents.crew.Crew`."""
+    energy_weight: float | None = None
+    """Reward lost per metre of wheel travel; None keeps the scenario's ``reward.energy_weight``."""
+    extractor: str = "deepsets"
+    """Features extractor over the rows: ``deepsets``, ``attention`` or ``flat``."""
+    timesteps: int = 200_000
+    """Total robot-steps of experience (slots x steps)."""
+    n_envs: int = 4
+    """Copies of the env (slots = copies x robots)."""
+    seed: int = 0
+    """Seeds PPO, torch and every env copy."""
+    learning_rate: float = 3e-4
+    """Adam step size."""
+    n_steps: int = 128
+    """Steps per slot between two updates."""
+    batch_size: int = 1024
+    """Minibatch size (samples)."""
+    n_epochs: int = 4
+    """Passes over each rollout."""
+    gamma: float = 0.99
+    """Discount per control step."""
+    ent_coef: float = 0.0
+    """Entropy bonus."""
+    checkpoint_every: int = 50_000
+    """Robot-steps between checkpoints."""
+    out: str = "runs"
+    """Folder of the runs."""
+    name: str | None = None
+    """Run name; default ``<preset>-<condition>-ppo-<extractor>-s<seed>-<time>``."""
+    torch_threads: int = 1
+    """Threads torch may use (1 is fastest for these small networks on a shared CPU)."""
+    progress: bool = False
+    """Show a progress bar."""
+
+    def __post_init__(self) -> None:
+        check_choice("condition", self.condition, CONDITIONS)
+        check_choice("extractor", self.extractor, EXTRACTOR_NAMES)
+        check_choice("reward", self.reward, REWARDS)
+        if self.energy_weight is not None:
+            check_number("energy_weight", self.energy_weight, 0.0)
+        check_number("budget", self.budget, 0.0, 1.0)
+        check_number("information_weight", self.information_weight, 0.0)
+        check_number("timesteps", self.timesteps, 1, integer=True)
+        check_number("n_envs", self.n_envs, 1, 1024, integer=True)
+        check_number("seed", self.seed, 0, 2**32 - 1, integer=True)
+        check_number("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        check_number("n_steps", self.n_steps, 2, 100_000, integer=True)
+        check_number("batch_size", self.batch_size, 2, integer=True)
+        check_number("n_epochs", self.n_epochs, 1, 1000, integer=True)
+        check_number("gamma", self.gamma, 0.0, 1.0)
+        check_number("ent_coef", self.ent_coef, 0.0)
+        check_number("checkpoint_every", self.checkpoint_every, 1, integer=True)
+        check_number("torch_threads", self.torch_threads, 1, 1024, integer=True)
+        if self.name is not None and not re.fullmatch(r"[A-Za-z0-9._-]+", self.name):
+            raise ValueError(f"name must use letters, digits, '.', '_' or '-', got {self.name!r}")
+        self.env_config()  # a bad scenario fails here, before any work
+
+    def env_config(self) -> EnvConfig:
+        """The scenario's config (with ``energy_weight`` applied)."""
+        config = make_config(self.preset, **self.overrides)
+        if self.energy_weight is None:
+            return config
+        reward = dataclasses.replace(config.reward, energy_weight=self.energy_weight)
+        return dataclasses.replace(config, reward=reward)
+
+    def run_name(self) -> str:
+        """The run's folder name."""
+        if self.name is not None:
+            return self.name
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        return f"{self.preset}-{self.condition}-ppo-{self.extractor}-s{self.seed}-{stamp}"
+
+    def to_json(self) -> dict[str, Any]:
+        """The config as JSON values."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a run produced.
+
+    Attributes:
+        directory: the run's folder.
+        agent: the saved final policy (``agent.zip``).
+        timesteps: robot-steps trained (a resumed run counts its earlier steps).
+        seconds: wall time of this call.
+    """
+
+    directory: Path
+    agent: Path
+    timesteps: int
+    seconds: float
+
+
+def build_model(config: TrainConfig, vec_env: Any) -> Any:
+    """A fresh PPO on ``vec_env`` with the config's extractor and hyperparameters."""
+    from stable_baselines3 import PPO
+
+    from agents.features import EXTRACTORS
+
+    return PPO(
+        "MultiInputPolicy",
+        vec_env,
+        learning_rate=config.learning_rate,
+        n_steps=config.n_steps,
+        batch_size=config.batch_size,
+        n_epochs=config.n_epochs,
+        gamma=config.gamma,
+        ent_coef=config.ent_coef,
+        seed=config.seed,
+        device="cpu",
+        policy_kwargs={"features_extractor_class": EXTRACTORS[config.extractor]},
+        verbose=0,
+    )
+
+
+def make_vec_env(config: TrainConfig) -> Any:
+    """The config's vectorized env (copies x robots slots)."""
+    from agents.vec import AnonLocVecEnv
+
+    return AnonLocVecEnv(
+        config.env_config(),
+        n_envs=config.n_envs,
+        condition=config.condition,
+        budget=config.budget,
+        information_weight=config.information_weight,
+        reward=config.reward,
+    )
+
+
+def train(config: TrainConfig) -> TrainResult:
+    """Train a new run as ``config`` describes (see the module doc).
+
+    Raises:
+        FileExistsError: the run folder exists already.
+    """
+    directory = Path(config.out) / config.run_name()
+    if directory.exists():
+        raise FileExistsError(
+            f"run folder {directory} exists: choose another name, or continue it with resume"
+        )
+    directory.mkdir(parents=True)
+    _write_json(directory / "config.json", _config_record(config))
+    return _learn(config, directory, None)
+
+
+def resume(directory: Path | str, timesteps: int | None = None) -> TrainResult:
+    """Continue the run in ``directory`` from its newest checkpoint, with its recorded config.
+
+    Args:
+        directory: the run folder.
+        timesteps: new total robot-steps (default: the recorded total).
+
+    Raises:
+        FileNotFoundError: no run or no checkpoint there.
+    """
+    directory = Path(directory)
+    recorded = _read_config(directory)
+    if timesteps is not None:
+        recorded["timesteps"] = timesteps
+    config = TrainConfig(**recorded)
+    return _learn(config, directory, latest_checkpoint(directory))
+
+
+def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> TrainResult:
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.logger import configure
+
+    from agents.callbacks import IdentificationLogger
+
+    start = time.perf_counter()
+    torch.set_num_threads(config.torch_threads)
+    vec_env = make_vec_env(config)
+    if checkpoint is None:
+        model = build_model(config, vec_env)
+    else:
+        model = PPO.load(checkpoint, env=vec_env, device="cpu")
+    checkpoints = CheckpointCallback(
+        save_freq=max(config.checkpoint_every // vec_env.num_envs, 1),
+        save_path=str(directory / "checkpoints"),
+        name_prefix="agent",
+    )
+    model.set_logger(configure(str(directory / "tb"), ["tensorboard", "csv"]))
+    model.learn(
+        total_timesteps=max(config.timesteps - model.num_timesteps, 0),
+        callback=CallbackList([checkpoints, IdentificationLogger()]),
+        reset_num_timesteps=checkpoint is None,
+        progress_bar=config.progress,
+    )
+    agent = directory / "agent.zip"
+    tmp = directory / "agent.tmp.zip"
+    model.save(tmp)
+    tmp.replace(agent)
+    vec_env.close()
+    return TrainResult(directory, agent, int(model.num_timesteps), time.perf_counter() - start)
+
+
+def latest_checkpoint(directory: Path) -> Path:
+    """The newest checkpoint of a run folder."""
+    found = sorted(
+        (directory / "checkpoints").glob("agent_*_steps.zip"),
+        key=lambda p: int(re.findall(r"\d+", p.stem)[-1]),
+    )
+    if not found:
+        raise FileNotFoundError(f"no checkpoint in {directory / 'checkpoints'} to resume from")
+    return found[-1]
+
+
+def _config_record(config: TrainConfig) -> dict[str, Any]:
+    record = json.loads(json.dumps(config.to_json(), default=_jsonable))
+    return {"train": record, "env": config_to_dict(config.env_config())}
+
+
+def _read_config(directory: Path) -> dict[str, Any]:
+    path = directory / "config.json"
+    if not path.exists():
+        raise FileNotFoundError(f"{path} not found: nothing to resume")
+    return dict(json.loads(path.read_text())["train"])
+
+
+def _write_json(path: Path, data: Any) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_jsonable))
+    tmp.replace(path)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON: {value!r}")

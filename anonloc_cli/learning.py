@@ -1,0 +1,150 @@
+"""``anonloc train`` and ``anonloc eval``: learned excitations through the same store and tables.
+
+``train`` builds an :class:`agents.train.TrainConfig` from the scenario and options (validated
+before any work) and runs it; ``eval`` runs a saved agent, and baseline excitations to compare
+with, through ``anonloc bench``'s runner, store and tables (policy ``agent``, built by
+``baselines.make_team("agent", env, path=...)``), adding the pictures until 99 % of the robots
+present are identified.
+
+Evaluation seeds are ``0..N-1``; training env copies are seeded by 64-bit draws of
+``SeedSequence(seed)``, so an evaluation episode is never a training one.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from anonloc_cli.console import echo
+from anonloc_cli.scenarios import InputError, Scenario
+
+
+def _rl_modules() -> Any:
+    try:
+        from agents import train
+    except ImportError as error:
+        raise InputError(
+            "training needs the rl extra: pip install torch==2.13.0 && pip install 'anonloc[rl]' "
+            f"({error})"
+        ) from None
+    return train
+
+
+def train(
+    *,
+    timesteps: int,
+    out: Path,
+    scenario: str,
+    sets: Sequence[str],
+    condition: str,
+    budget: float,
+    extractor: str,
+    n_envs: int,
+    seed: int,
+    name: str | None,
+    resume: Path | None,
+    quiet: bool,
+) -> int:
+    """Train (or resume) a run; the exit status."""
+    from anonloc_cli import scenarios
+
+    module = _rl_modules()
+    if resume is not None:
+        try:
+            result = module.resume(resume, timesteps)
+        except (FileNotFoundError, ValueError) as error:
+            raise InputError(str(error)) from None
+    else:
+        resolved = scenarios.resolve(scenario, sets)
+        spec = dict(resolved.spec)
+        preset = spec.pop("preset", "default")
+        try:
+            config = module.TrainConfig(
+                preset=preset,
+                overrides=spec,
+                condition=condition,
+                budget=budget,
+                extractor=extractor,
+                timesteps=timesteps,
+                n_envs=n_envs,
+                seed=seed,
+                out=str(out),
+                name=name,
+                progress=not quiet,
+            )
+            result = module.train(config)
+        except (FileExistsError, ValueError, TypeError) as error:
+            raise InputError(str(error)) from None
+    echo(
+        f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "
+        f"agent: {result.agent}; logs: tensorboard --logdir {result.directory / 'tb'}"
+    )
+    return 0
+
+
+def agent_scenario(agent: Path) -> Scenario:
+    """The scenario a saved agent was trained on (from its run's ``config.json``)."""
+    from anonloc_cli import scenarios
+
+    folder = agent if agent.is_dir() else agent.parent
+    record = folder / "config.json"
+    if not record.is_file():
+        raise InputError(f"{record} not found: pass --scenario (the agent's own is not recorded)")
+    train = json.loads(record.read_text())["train"]
+    return scenarios.build(folder.name, {"preset": train["preset"], **train["overrides"]})
+
+
+def evaluate(
+    *,
+    agent: Path,
+    seeds: int,
+    out: Path,
+    scenario: str | None,
+    sets: Sequence[str],
+    against: Sequence[str],
+    pictures: int | None,
+    backend: str,
+    address: str | None,
+    workers: int | None,
+    quiet: bool,
+) -> int:
+    """Evaluate ``agent`` and the ``against`` excitations; the exit status."""
+    from anonloc_cli import bench, policies, scenarios
+
+    path = agent.resolve()
+    if not (path.is_file() or (path / "agent.zip").is_file()):
+        raise InputError(f"--agent: no saved agent at {agent} (an agent.zip or its run folder)")
+    if scenario is None:
+        resolved = agent_scenario(path)
+        if sets:
+            spec = scenarios.apply_sets(json.loads(json.dumps(resolved.spec)), sets)
+            resolved = scenarios.build(resolved.name, spec)
+    else:
+        resolved = scenarios.resolve(scenario, sets)
+    entries = [bench.Entry("agent", "agent", None, {"path": str(path)})]
+    for name in against:
+        policies.check_excitation(name)
+        entries.append(bench.Entry(name, "bayes", name))
+    for entry in entries:
+        policies.check_team(
+            entry.policy,
+            resolved.config,
+            mode="corrected",
+            excitation_spec=entry.excitation,
+            **entry.kwargs,
+        )
+    return bench.main(
+        [resolved],
+        entries,
+        seeds,
+        out,
+        mode="corrected",
+        pictures=pictures,
+        backend=backend,
+        address=address,
+        workers=workers,
+        quiet=quiet,
+        identification=True,
+    )
