@@ -14,7 +14,7 @@ between all robots, each blending in a fraction ``jitter`` of its own draw.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -49,6 +49,11 @@ class Excitation:
     def on_picture(self, step: Step, localizer: Localizer) -> None:
         """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
         :meth:`commands`. The default does nothing."""
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        """Called by :class:`SwarmDuty` before each :meth:`commands` when this excitation is the
+        robots' deviation: the shared commands ``v``, ``w`` ``(R,)`` of this step and the factor
+        ``budget`` its own commands are scaled by. The default ignores them."""
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(v, w)`` for every robot at this step."""
@@ -290,7 +295,8 @@ class SwarmDuty(Excitation):
 
     The shared stream is :class:`SwarmMotion` with jitter 0 (identical commands for all robots,
     each still turning away after a bump). The robot's own motion comes from ``deviation``, any
-    excitation (or a learned policy), scaled by ``budget``::
+    excitation (or a learned policy), scaled by ``budget``, which is told the shared command and
+    the budget before each step (:meth:`Excitation.follow`)::
 
         v = v_shared + budget * v_own,   w = w_shared + budget * w_own
 
@@ -321,6 +327,7 @@ class SwarmDuty(Excitation):
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v_shared, w_shared = self.shared.commands(step, dt)
+        self.deviation.follow(v_shared, w_shared, self.budget)
         v_own, w_own = self.deviation.commands(step, dt)
         return v_shared + self.budget * v_own, w_shared + self.budget * w_own
 
@@ -431,7 +438,13 @@ class DistinctMotion(BackOff):
         return self._apply_backoff(dt, self.v, self.w)
 
 
-EXCITATIONS = {
+def _greedy() -> Excitation:
+    from baselines.active import GreedyIdentification  # it builds on this module
+
+    return GreedyIdentification()
+
+
+EXCITATIONS: dict[str, Callable[[], Excitation]] = {
     "still": Still,
     "angular": Angular,
     "linear": Linear,
@@ -439,6 +452,9 @@ EXCITATIONS = {
     "random": RandomMotion,
     "swarm": SwarmMotion,
     "distinct": DistinctMotion,
+    "greedy": _greedy,
 }
-"""Excitations by name. ``random`` and ``motion`` are the same random motion; ``swarm`` is
-:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0)."""
+"""Excitations by name (each value builds one). ``random`` and ``motion`` are the same random
+motion; ``swarm`` is :class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common
+seed 0); ``distinct`` is :class:`DistinctMotion`; ``greedy`` is
+:class:`baselines.active.GreedyIdentification`."""
