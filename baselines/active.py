@@ -1,0 +1,384 @@
+"""Active identification: at each picture, drive so that the next picture tells most.
+
+:class:`GreedyIdentification` is a one-step (greedy) information-seeking excitation in the spirit
+of Chernoff's active hypothesis testing. At every picture each robot reads its own belief over the
+rows of the picture (the team localizer's ``belief``; never the identifier's private tracks),
+keeps its few most likely rows as hypotheses, draws a handful of candidate commands ``(v, w)``
+(held until the next picture), predicts for each the belief it would hold after the next picture,
+and drives the candidate with the smallest expected entropy of that belief, plus a small energy
+penalty.
+
+The prediction (all closed form, vectorised over robots x hypotheses x candidates):
+
+* **My next position under hypothesis h.** A command held for ``T`` seconds moves the robot by
+  ``d = (v/w sin(wT), v/w (1 - cos(wT)))`` in its own frame. If the robot's heading at row ``h``
+  is known (the detector measures it, or it is reconstructed from the row of the previous
+  picture that matches the robot's own last displacement) it lands at ``p_h + s R(theta_h) d``
+  (a point, with Gaussian noise); otherwise anywhere on the ring of radius ``s |d|`` around
+  ``p_h`` (the identifier then matches only the displacement's length).
+* **The other robots' unknown motion.** The robot at a wrong row ``h'`` moves as another robot
+  would: its command is drawn from ``others`` (by default the same box the candidates come from;
+  robots are identical). With a known heading the chance that it lands where "I am h'" predicts
+  me depends only on the distance between my displacement and its displacement, each in its own
+  frame; with the heading unknown, on their lengths. Every other detection is background clutter
+  of the identifier's density ``lambda`` (rows per image area).
+* **Expected posterior.** If I am ``h*``, hypothesis ``h'`` keeps the likelihood ratio
+  ``(lambda + collide(h*, h') + mimic(h')) / (lambda + peak(h*))`` against it: ``collide`` is the
+  density of "I am h'" where I truly land (two hypotheses that predict the same place cannot be
+  told apart), ``mimic`` that of the robot at ``h'`` moving like me, ``peak`` the density of my
+  own detection under the truth. The expected entropy averages the entropy of the resulting
+  posterior over ``h*`` weighted by the current belief.
+
+On swarm duty (:class:`baselines.excitations.SwarmDuty`) the robot only chooses a deviation: the
+duty tells it the shared command and the budget through :meth:`Excitation.follow`, the
+candidates are deviations (forward or backward), and the predicted displacements are those of
+``shared + budget * deviation``, for the others too (they follow the same shared stream).
+
+After a bump the robot reverses out (:class:`baselines.excitations.BackOff`) and resumes its
+choice.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from anonloc_env.identify import ring_loglik
+from baselines.excitations import BackOff, DistinctSettings
+from baselines.observations import Step
+
+if TYPE_CHECKING:
+    from baselines.localizers import Localizer
+
+
+@dataclass
+class GreedySettings:
+    """Settings of :class:`GreedyIdentification`, all rates in SI units.
+
+    Attributes:
+        candidates: number of candidate commands drawn per robot and picture, >= 1.
+        speed: range of candidate forward speeds (m/s). On swarm duty, deviations are drawn in
+            ``[-speed[1], speed[1]]``.
+        turn: largest candidate turn rate (rad/s); rates are uniform in ``[-turn, turn]``.
+        others: the other robots' commands ``(v, w)`` (m/s, rad/s), equally likely; ``None``: a
+            3 x 5 grid over the candidates' box (the other robots are like this one).
+        hypotheses: most rows kept as hypotheses per robot, >= 1.
+        floor: rows below this belief are no hypothesis, in [0, 1).
+        ring_samples: points per ring when the heading is unknown, >= 1.
+        energy_weight: nats of expected entropy worth one metre of wheel travel, >= 0; a small
+            value breaks ties (a robot sure of itself drives the cheapest candidate).
+        back: the back-off after a bump (only ``back_speed``, ``back_time`` and ``turn`` are
+            used).
+    """
+
+    candidates: int = 8
+    speed: tuple[float, float] = (0.1, 0.5)
+    turn: float = 1.0
+    others: tuple[tuple[float, float], ...] | None = None
+    hypotheses: int = 6
+    floor: float = 1e-3
+    ring_samples: int = 8
+    energy_weight: float = 0.1
+    back: DistinctSettings = field(default_factory=DistinctSettings)
+
+    def __post_init__(self) -> None:
+        for name in ("candidates", "hypotheses", "ring_samples"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        low, high = self.speed
+        if not 0.0 <= low <= high:
+            raise ValueError(
+                f"speed must be (low, high) with 0 <= low <= high m/s, got {self.speed}"
+            )
+        if not self.turn >= 0.0:
+            raise ValueError(f"turn must be >= 0 rad/s, got {self.turn}")
+        if not 0.0 <= self.floor < 1.0:
+            raise ValueError(f"floor must be in [0, 1), got {self.floor}")
+        if not self.energy_weight >= 0.0:
+            raise ValueError(f"energy_weight must be >= 0 nats/m, got {self.energy_weight}")
+        if self.others is not None and len(self.others) == 0:
+            raise ValueError("others must hold at least one command (v, w), or be None")
+
+    def other_commands(self, deviation: bool) -> np.ndarray:
+        """``(S, 2)`` the other robots' commands (deviations on swarm duty)."""
+        if self.others is not None:
+            return np.asarray(self.others, dtype=np.float64).reshape(-1, 2)
+        low = -self.speed[1] if deviation else self.speed[0]
+        v, w = np.meshgrid(
+            np.linspace(low, self.speed[1], 3), np.linspace(-self.turn, self.turn, 5)
+        )
+        return np.stack([v.ravel(), w.ravel()], axis=1)
+
+
+def unicycle(v: np.ndarray, w: np.ndarray, duration: float) -> np.ndarray:
+    """Displacement ``(..., 2)`` in the robot's frame of ``(v, w)`` held for ``duration`` s."""
+    v, w = np.broadcast_arrays(np.asarray(v, np.float64), np.asarray(w, np.float64))
+    turn = w * duration
+    small = np.abs(turn) < 1e-6
+    safe = np.where(small, 1.0, w)
+    forward = np.where(small, v * duration, v / safe * np.sin(turn))
+    lateral = np.where(small, 0.5 * v * w * duration**2, v / safe * (1.0 - np.cos(turn)))
+    return np.stack([forward, lateral], axis=-1)
+
+
+@dataclass(frozen=True)
+class Hypotheses:
+    """Each robot's hypotheses at one picture, padded to ``K`` (weight 0 where absent).
+
+    Attributes:
+        weight: ``(R, K)`` normalised beliefs.
+        pos: ``(R, K, 2)`` their rows' image positions.
+        theta: ``(R, K)`` the robot's image heading if it is that row (0 where unknown).
+        theta_var: ``(R, K)`` variance of that heading (rad^2).
+        known: ``(R, K)`` whether the heading is known.
+    """
+
+    weight: np.ndarray
+    pos: np.ndarray
+    theta: np.ndarray
+    theta_var: np.ndarray
+    known: np.ndarray
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """What the prediction needs besides the hypotheses (image units, seconds).
+
+    Attributes:
+        scale: image units per metre.
+        pixel_var: variance of a detection's ``u`` and ``v``.
+        scale_spread: relative spread of the scale across the image.
+        clutter: density of the other detections (rows per image area).
+        p_detect: probability that a robot is in a picture.
+        duration: time to the next picture (s).
+    """
+
+    scale: float
+    pixel_var: float
+    scale_spread: float
+    clutter: float
+    p_detect: float
+    duration: float
+
+
+def expected_entropy(
+    hyp: Hypotheses, own: np.ndarray, others: np.ndarray, geo: Geometry, ring_samples: int = 8
+) -> np.ndarray:
+    """``(R, C)`` expected entropy (nats) of each robot's belief after the next picture.
+
+    Args:
+        hyp: the robots' hypotheses (``K`` each).
+        own: ``(R, C, 2)`` each candidate's displacement in the robot's frame (m).
+        others: ``(R, S, 2)`` the other robots' possible displacements in their frames (m).
+        geo: scale, noise and timing.
+        ring_samples: points per ring where the heading is unknown.
+    """
+    s = geo.scale
+    rho = s * np.hypot(own[..., 0], own[..., 1])  # (R, C)
+    known = hyp.known[:, :, None]  # (R, K, 1)
+    var = (
+        2.0 * geo.pixel_var
+        + (geo.scale_spread * rho[:, None, :]) ** 2
+        + np.where(known, hyp.theta_var[:, :, None], 0.0) * rho[:, None, :] ** 2
+        + 1e-9
+    )  # (R, K, C)
+    cos, sin = np.cos(hyp.theta)[:, :, None], np.sin(hyp.theta)[:, :, None]
+    dx, dy = s * own[:, None, :, 0], s * own[:, None, :, 1]
+    mu = hyp.pos[:, :, None, :] + np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
+    # Where I land if I am h*: the point, or ring_samples points on the ring.
+    phi = 2.0 * math.pi * (np.arange(ring_samples) + 0.5) / ring_samples
+    circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (M, 2)
+    ring_points = hyp.pos[:, :, None, None, :] + rho[:, None, :, None, None] * circle
+    land = np.where(known[..., None, None], mu[:, :, :, None, :], ring_points)  # (R, K, C, M, 2)
+    # Density of "I am h'" at those points: (R, K*, K', C, M).
+    x = land[:, :, None]
+    v2 = var[:, None, :, :, None]
+    gap = x - mu[:, None, :, :, None, :]
+    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
+    off = x - hyp.pos[:, None, :, None, None, :]
+    r = np.hypot(off[..., 0], off[..., 1])
+    ring = np.exp(ring_loglik(r, np.broadcast_to(rho[:, None, None, :, None], r.shape), v2))
+    collide = np.where(known[:, None, :, :, None], gauss, ring).mean(axis=-1)  # (R, K*, K', C)
+    # Density of "I am h'" where the robot truly at h' goes: (R, K', C).
+    other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R, S)
+    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
+    vs = var[..., None]
+    mimic_known = np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)
+    mimic_ring = np.exp(
+        ring_loglik(
+            np.broadcast_to(other_len[:, None, None, :], vs.shape[:-1] + other_len.shape[-1:]),
+            np.broadcast_to(rho[:, None, :, None], vs.shape[:-1] + other_len.shape[-1:]),
+            vs,
+        )
+    )
+    mimic = np.where(known, mimic_known.mean(axis=-1), mimic_ring.mean(axis=-1))
+    # My own detection's density under the truth: (R, K*, C).
+    peak = np.where(
+        known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
+    )
+    base = geo.clutter / geo.p_detect
+    ratio = (base + collide + mimic[:, None]) / (base + peak[:, :, None])  # (R, K*, K', C)
+    k = hyp.weight.shape[1]
+    eye = np.eye(k, dtype=bool)[None, :, :, None]
+    ratio = np.where(eye, 1.0, ratio)
+    post = hyp.weight[:, None, :, None] * ratio
+    post /= np.maximum(post.sum(axis=2, keepdims=True), 1e-300)
+    entropy = -(post * np.log(np.maximum(post, 1e-300))).sum(axis=2)  # (R, K*, C)
+    return (hyp.weight[:, :, None] * entropy).sum(axis=1)
+
+
+class GreedyIdentification(BackOff):
+    """Drive, at each picture, the candidate command that best separates the robot's hypotheses
+    (see the module documentation for the model).
+
+    It needs the team's localizer to expose ``belief`` (``(R, n_rows)``) and ``model`` (an
+    ``anonloc_env.identify.SensorModel``), as :class:`baselines.localizers.BayesLocalizer` does,
+    and reads the robots' limits and picture interval from ``localizer.config``. Until the first
+    picture has been taken in, and for a robot with no row above ``floor``, it drives a random
+    candidate.
+
+    Args:
+        settings: candidates, the others' model, hypotheses and energy weight.
+    """
+
+    def __init__(self, settings: GreedySettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or GreedySettings()
+        self.back = self.settings.back
+        self.base = (np.zeros(0), np.zeros(0))
+        self.budget = 1.0
+        self.following = False
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.v = np.zeros(self.n)
+        self.w = np.zeros(self.n)
+        self.base = (np.zeros(self.n), np.zeros(self.n))
+        self.budget = 1.0
+        self.following = False
+        self._reset_backoff()
+        self._previous: np.ndarray | None = None
+        self._pending: tuple[Hypotheses, Geometry, float] | None = None
+        self.last_entropy = np.zeros(self.n)
+        """``(R,)`` expected entropy of the command chosen at the newest picture (nats)."""
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        self.base = (np.asarray(v, np.float64), np.asarray(w, np.float64))
+        self.budget = budget
+        self.following = True
+
+    def on_picture(self, step: Step, localizer: Localizer) -> None:
+        belief = np.asarray(localizer.belief, dtype=np.float64)
+        rows = step.rows
+        model = localizer.model
+        config = localizer.config
+        if belief.shape[1] == 0 or len(rows) == 0:
+            self._pending = None
+            self._previous = rows
+            return
+        hyp = self._hypotheses(belief, rows, step, model.scale_bounds[1], model)
+        geo = Geometry(
+            scale=model.scale_bounds[1],
+            pixel_var=max(model.pixel_noise, 1e-3) ** 2,
+            scale_spread=model.scale_spread,
+            clutter=max(len(rows) - model.p_detect, 0.5) / model.image_area,
+            p_detect=model.p_detect,
+            duration=config.schedule.picture_interval,
+        )
+        turn_cost = config.reward.turn_cost
+        self._pending = (hyp, geo, config.robot.size / 2.0 if turn_cost is None else turn_cost)
+        self._previous = rows
+
+    def _hypotheses(
+        self, belief: np.ndarray, rows: np.ndarray, step: Step, scale: float, model: object
+    ) -> Hypotheses:
+        st = self.settings
+        k = min(st.hypotheses, belief.shape[1])
+        order = np.argsort(-belief, axis=1, kind="stable")[:, :k]
+        weight = np.take_along_axis(belief, order, axis=1)
+        weight = np.where(weight >= st.floor, weight, 0.0)
+        weight /= np.maximum(weight.sum(axis=1, keepdims=True), 1e-300)
+        pos = rows[order, :2]
+        if getattr(model, "orientation", False):
+            theta = rows[order, 2]
+            sd = float(getattr(model, "orientation_noise", 0.0))
+            return Hypotheses(
+                weight, pos, theta, np.full(theta.shape, sd**2 + 1e-6), np.ones_like(theta, bool)
+            )
+        return self._reconstructed(
+            weight, pos, step, scale, float(getattr(model, "pixel_noise", 1.0))
+        )
+
+    def _reconstructed(
+        self, weight: np.ndarray, pos: np.ndarray, step: Step, scale: float, pixel_noise: float
+    ) -> Hypotheses:
+        """Headings from the previous picture: the row whose distance to ``pos`` best matches
+        the robot's own last displacement gives its direction of travel."""
+        shape = weight.shape
+        theta = np.zeros(shape)
+        known = np.zeros(shape, bool)
+        sigma = max(pixel_noise, 1e-3)
+        length = scale * np.hypot(step.between[:, 0], step.between[:, 1])  # (R,)
+        var = np.full(shape, 4.0 * sigma**2 / np.maximum(length, 1e-9)[:, None] ** 2)
+        prev = self._previous
+        if prev is not None and len(prev):
+            gap = pos[:, :, None, :] - prev[None, None, :, :2]  # (R, K, P, 2)
+            dist = np.hypot(gap[..., 0], gap[..., 1])
+            miss = np.abs(dist - length[:, None, None])
+            best = miss.argmin(axis=2)
+            fit = np.take_along_axis(miss, best[..., None], axis=2)[..., 0]
+            vec = np.take_along_axis(gap, best[..., None, None], axis=2)[:, :, 0]
+            known = (fit < 3.0 * math.sqrt(2.0) * sigma) & (length[:, None] > 5.0 * sigma)
+            own = np.arctan2(step.between[:, 1], step.between[:, 0])
+            theta = np.where(
+                known,
+                np.arctan2(vec[..., 1], vec[..., 0]) - own[:, None] + step.between[:, 2:3],
+                0.0,
+            )
+        return Hypotheses(weight, pos, theta, var, known)
+
+    def _candidates(self, deviation: bool) -> np.ndarray:
+        """``(R, C, 2)`` candidate commands, each robot from its own generator."""
+        st = self.settings
+        low = -st.speed[1] if deviation else st.speed[0]
+        out = np.empty((self.n, st.candidates, 2))
+        for i, rng in enumerate(self.rngs):
+            out[i, :, 0] = rng.uniform(low, st.speed[1], st.candidates)
+            out[i, :, 1] = rng.uniform(-st.turn, st.turn, st.candidates)
+        return out
+
+    def choose(self) -> None:
+        """Pick every robot's command for the interval now starting (the module's rule)."""
+        deviation = self.following
+        cand = self._candidates(deviation)
+        if self._pending is None:
+            self.v, self.w = cand[:, 0, 0].copy(), cand[:, 0, 1].copy()
+            return
+        hyp, geo, turn_cost = self._pending
+        st = self.settings
+        bv, bw = self.base[0][:, None], self.base[1][:, None]
+        total_v = bv + self.budget * cand[..., 0]
+        total_w = bw + self.budget * cand[..., 1]
+        own = unicycle(total_v, total_w, geo.duration)
+        other = st.other_commands(deviation)[None]
+        others = unicycle(
+            bv + self.budget * other[..., 0], bw + self.budget * other[..., 1], geo.duration
+        )
+        entropy = expected_entropy(hyp, own, others, geo, st.ring_samples)
+        spent = geo.duration * (np.abs(total_v) + turn_cost * np.abs(total_w))
+        pick = (entropy + st.energy_weight * spent).argmin(axis=1)
+        rows = np.arange(self.n)
+        self.v, self.w = cand[rows, pick, 0], cand[rows, pick, 1]
+        self.last_entropy = entropy[rows, pick]
+        self._pending = None
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        self._start_backoff(step)
+        if step.new_picture:
+            self.choose()
+        return self._apply_backoff(dt, self.v, self.w)
