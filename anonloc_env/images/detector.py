@@ -53,7 +53,8 @@ class MarkerDetector:
         params.cornerRefinementMethod = getattr(cv2.aruco, f"CORNER_REFINE_{refinement.upper()}")
         win = window if window is not None else max(2, round(0.5 * cell_pixels))
         params.cornerRefinementWinSize = int(win)
-        params.relativeCornerRefinmentWinSize = 1.0  # let cornerRefinementWinSize decide
+        if hasattr(params, "relativeCornerRefinmentWinSize"):  # OpenCV >= 4.9 (sic)
+            params.relativeCornerRefinmentWinSize = 1.0  # let cornerRefinementWinSize decide
         # Look for markers down to a third of the expected perimeter (tilt, the far side).
         perimeter = 4.0 * MARKER_CELLS * cell_pixels
         params.minMarkerPerimeterRate = min(0.03, perimeter / 3.0 / max(frame.shape))

@@ -115,3 +115,8 @@ def pixel_frame(config: EnvConfig, camera: Camera | None = None) -> PixelFrame:
             f"{p * math.sqrt(MAX_PIXELS / (width * height)):.4g}]"
         )
     return PixelFrame(p, u_min, v_max, width, height)
+
+
+def marker_cell_pixels(config: EnvConfig) -> float:
+    """Pixels per marker cell at the arena centre."""
+    return cell_size(config.robot) * config.camera.scale * pixels_per_unit(config)

@@ -17,7 +17,7 @@ import numpy as np
 from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
 from anonloc_env.images._cv import import_cv2
-from anonloc_env.images.frame import PixelFrame, pixel_frame
+from anonloc_env.images.frame import PixelFrame, marker_cell_pixels, pixel_frame
 from anonloc_env.images.marker import BODY, FLOOR, TEMPLATE_CELLS, cell_size, template
 
 _TEMPLATE_CELL_PIXELS = 16  # template resolution: 16 pixels per marker cell
@@ -39,7 +39,7 @@ class ImageRenderer:
         self.frame: PixelFrame = pixel_frame(config, self.camera)
         cam, robot = config.camera, config.robot
         cell = cell_size(robot)
-        cell_pixels = cell * cam.scale * self.frame.pixels_per_unit
+        cell_pixels = marker_cell_pixels(config)
         shrink = _TEMPLATE_CELL_PIXELS / cell_pixels  # template pixels per image pixel
         self.cell_pixels = cell_pixels
         """Pixels per marker cell at the arena centre."""
