@@ -8,14 +8,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-cv2 = pytest.importorskip("cv2", reason="anonloc detect needs the images extra (OpenCV)")
-pytest.importorskip("typer", reason="the command line needs the cli extra")
-
 import anonloc_env
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.images import ImageRenderer
 from anonloc_env.world import random_poses
 from tests.cli_helpers import invoke, read_csv
+
+cv2 = pytest.importorskip("cv2", reason="anonloc detect needs the images extra (OpenCV)")
 
 CAMERA_TOML = """\
 preset = "paper-angular"
