@@ -5,7 +5,8 @@ fixes the pixel grid: ``camera.image_pixels_per_unit``, and the field of view (`
 ``principal_point``, or the arena's projection plus a margin), exactly as the image source renders
 it (:func:`anonloc_env.images.pixel_frame`). Every frame must have that size. For a real camera
 whose pixels are the image units, set ``image_pixels_per_unit = 1``, ``image_size = [W, H]`` and
-``principal_point = [W / 2, H / 2]``: then ``u`` is the column and ``v`` is ``H`` minus the row.
+``principal_point = [W / 2, H / 2]``: then ``u = col + 0.5`` and ``v = H - row - 0.5`` (pixel
+centres; ``v`` is up).
 
 Frames are the folder's ``.png``, ``.jpg`` and ``.jpeg`` files in name order, numbered from 0.
 Columns of the output (one row per detection; a frame without detections has none):
