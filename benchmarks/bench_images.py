@@ -37,7 +37,7 @@ import numpy as np
 import anonloc_env
 from anonloc_env.camera import Camera
 from anonloc_env.images import ImageCamera, MarkerDetector, calibrate, sample_errors
-from anonloc_env.images.frame import AUTO_CELL_PIXELS, marker_cell_pixels
+from anonloc_env.images.frame import AUTO_CELL_PIXELS
 from anonloc_env.images.marker import MARKER_CELLS, cell_size
 from anonloc_env.world import random_poses
 
