@@ -317,6 +317,37 @@ def render(
 
 
 @app.command()
+def detect(
+    folder: Annotated[Path, typer.Argument(help="A folder of PNG/JPEG frames.")],
+    camera: Annotated[
+        str,
+        typer.Option(
+            help="A TOML/YAML scenario file (or a preset) whose camera section fixes the pixel "
+            "grid: image_pixels_per_unit, image_size, principal_point."
+        ),
+    ],
+    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else .csv.")] = Path(
+        "detections.csv"
+    ),
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+) -> None:
+    """Detect the robots' ArUco markers in every frame of FOLDER (name order) and write one row
+    per detection: frame, u, v, theta, in the picture format the localizers read.
+
+    Needs the images extra (OpenCV): pip install 'anonloc[images]'.
+    """
+    with _command(verbose):
+        from anonloc_cli import detect as command
+        from anonloc_cli import scenarios
+
+        command.check_output(out)
+        resolved = scenarios.resolve(camera)
+        status = command.main(folder, resolved, out, quiet=quiet)
+    raise typer.Exit(status)
+
+
+@app.command()
 def frame(
     out: Annotated[Path, typer.Option(help="The PNG to write.")] = Path("frame.png"),
     preset: Annotated[str, typer.Option(help="A preset.")] = "default",

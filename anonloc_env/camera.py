@@ -14,7 +14,9 @@ is ``s / w`` along u and ``s cos(tilt) / w**2`` along v. Untilted, ``G`` is the 
 through the Jacobian of ``G`` at its position.
 
 Anything that yields :class:`Picture` objects from poses can stand in for :class:`Camera` (the
-:class:`DetectionSource` protocol): nothing downstream knows how a picture was made.
+:class:`DetectionSource` protocol): nothing downstream knows how a picture was made. With
+``camera.source = "image"``, :func:`detection_source` picks :mod:`anonloc_env.images`' rendered
+and detected pictures instead.
 """
 
 from __future__ import annotations
@@ -77,6 +79,17 @@ def detection_capacity(config: EnvConfig) -> int:
             term *= mean / extra
             cumulative += term
     return config.n_robots + extra
+
+
+def detection_source(config: EnvConfig, camera: Camera) -> DetectionSource:
+    """The detection source ``config.camera.source`` names: ``camera`` itself for
+    ``"geometric"``, an :class:`anonloc_env.images.ImageCamera` sharing its geometry for
+    ``"image"`` (imports OpenCV)."""
+    if config.camera.source == "image":
+        from anonloc_env.images.source import ImageCamera  # OpenCV: the optional images extra
+
+        return ImageCamera(config, camera)
+    return camera
 
 
 class Camera:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from anonloc_env._checks import check_choice, check_number, check_pair
 
 ROBOT_SHAPES = ("square", "circle")
+CAMERA_SOURCES = ("geometric", "image")
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,21 @@ class CameraConfig:
         p_miss: probability that a robot is missing from a picture, in [0, 1).
         false_positives: mean number of false detections per picture (Poisson), in [0, 1000].
             They are uniform over the field of view, with a uniform ``theta``.
+        source: how pictures are taken: ``"geometric"`` (project the poses and add the noise
+            above) or ``"image"`` (render a grayscale image in which every robot carries the same
+            ArUco marker and detect the markers with OpenCV; see :mod:`anonloc_env.images`; needs
+            the ``images`` extra). With ``"image"`` the errors are the detector's own:
+            ``pixel_noise``, ``orientation_noise_deg``, ``p_miss`` and ``false_positives`` are not
+            applied, and the sensor model localizers build uses the measured values instead.
+        image_pixels_per_unit: pixels of the rendered image per image unit, in (0, 1000].
+            ``None`` chooses it so that one cell of a robot's marker spans 5 pixels (a marker of
+            30 pixels). Detections are converted back to image units.
+        image_blur: standard deviation of the Gaussian blur of the rendered image (pixels), in
+            [0, 20].
+        image_noise: standard deviation of the Gaussian sensor noise (grey levels of 255), in
+            [0, 100].
+        image_gradient: illumination gradient: the fraction of brightness lost from the top-left
+            to the bottom-right corner of the image, in [0, 1).
     """
 
     scale: float = 100.0
@@ -104,6 +120,11 @@ class CameraConfig:
     orientation_noise_deg: float = 0.0
     p_miss: float = 0.0
     false_positives: float = 0.0
+    source: str = "geometric"
+    image_pixels_per_unit: float | None = None
+    image_blur: float = 0.0
+    image_noise: float = 0.0
+    image_gradient: float = 0.0
 
     def __post_init__(self) -> None:
         check_number("camera.scale", self.scale, 0.0, low_open=True)
@@ -122,6 +143,18 @@ class CameraConfig:
         )
         check_number("camera.p_miss", self.p_miss, 0.0, 1.0, high_open=True)
         check_number("camera.false_positives", self.false_positives, 0.0, 1000.0)
+        check_choice("camera.source", self.source, CAMERA_SOURCES)
+        if self.image_pixels_per_unit is not None:
+            check_number(
+                "camera.image_pixels_per_unit",
+                self.image_pixels_per_unit,
+                0.0,
+                1000.0,
+                low_open=True,
+            )
+        check_number("camera.image_blur", self.image_blur, 0.0, 20.0)
+        check_number("camera.image_noise", self.image_noise, 0.0, 100.0)
+        check_number("camera.image_gradient", self.image_gradient, 0.0, 1.0, high_open=True)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from anonloc_env.actions import stack_actions
-from anonloc_env.camera import Camera, DetectionSource, Picture
+from anonloc_env.camera import Camera, DetectionSource, Picture, detection_source
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space
@@ -85,7 +85,9 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     ## Arguments
     `config` (an `EnvConfig`; `parallel_env` builds it from a preset and overrides),
     `render_mode` (`None`, `"human"` or `"rgb_array"`), `reward_fn` (a `RewardFunction`), and
-    `detector` (a `DetectionSource` to replace the built-in geometric camera).
+    `detector` (a `DetectionSource` to replace the built-in camera). With
+    `camera={"source": "image"}` pictures are rendered and their markers detected with OpenCV
+    (`anonloc_env.images`, the `images` extra); `render` then shows the image in a corner.
 
     ## Version History
     * v0: initial release.
@@ -119,7 +121,9 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
-        self.detector: DetectionSource = detector if detector is not None else self.camera
+        self.detector: DetectionSource = (
+            detector if detector is not None else detection_source(self.config, self.camera)
+        )
         self.max_cycles = self.config.max_cycles
         """Steps before truncation; may be changed between episodes (``parallel_api_test`` does)."""
 
@@ -342,7 +346,12 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
 
             self._renderer = Renderer(self.config, self.camera, self.render_mode)
         return self._renderer.draw(
-            self.world.poses, self.picture, self.guesses, self.possible_agents, self.time
+            self.world.poses,
+            self.picture,
+            self.guesses,
+            self.possible_agents,
+            self.time,
+            image=getattr(self.detector, "last_image", None),
         )
 
     def close(self) -> None:

@@ -36,6 +36,7 @@ from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import Camera, Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import rotate, wrap_angle
+from anonloc_env.images.errors import effective_camera
 from anonloc_env.neighbours import expand_ranges, pairs_within
 from anonloc_env.odometry import Interval
 
@@ -106,7 +107,7 @@ class SensorModel:
         local = camera.local_scale(grid)
         mean = float(local.mean())
         u_min, v_min, u_max, v_max = camera.field_of_view
-        cam = config.camera
+        cam = effective_camera(config)  # the image source's measured errors, if it is used
         return cls(
             scale=mean if scale_known else None,
             scale_range=(0.5 * mean, 2.0 * mean),

@@ -3,7 +3,8 @@
 The arena is drawn in world coordinates (y up). Robots are drawn with their heading; the newest
 picture's detections are mapped back to the ground through the camera and drawn as crosses; a
 robot's guess, when set, is a line from the robot to the detection it believes is itself, green
-when right and red when wrong.
+when right and red when wrong. With the image source (``camera.source = "image"``) the camera's
+newest grayscale image is shown in the top-right corner (picture-in-picture).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from anonloc_env.config import EnvConfig
 
 _WINDOW = 640  # pixels along the arena's longer side
 _MARGIN = 20
+_INSET = 0.3  # side of the picture-in-picture, as a fraction of the window's width
 
 
 def _import_pygame() -> Any:
@@ -79,8 +81,12 @@ class Renderer:
         guesses: dict[str, int | None],
         agents: list[str],
         time: float,
+        image: np.ndarray | None = None,
     ) -> np.ndarray | None:
-        """Draw one frame; return it for ``rgb_array``, show it for ``human``."""
+        """Draw one frame; return it for ``rgb_array``, show it for ``human``.
+
+        ``image``, a grayscale ``(H, W)`` uint8 camera image, is drawn as a picture-in-picture.
+        """
         pg, surface = self.pygame, self.surface
         surface.fill((250, 250, 250))
         width, height = self.config.arena_size
@@ -98,6 +104,8 @@ class Renderer:
             self._draw_guesses(poses, picture, screen, guesses, agents)
         label = f"t = {time:7.2f} s   pictures: {0 if picture is None else picture.index + 1}"
         surface.blit(self.font.render(label, True, (20, 20, 20)), (_MARGIN, 4))
+        if image is not None:
+            self._draw_inset(image)
         if self.mode == "human":
             self.window.blit(surface, (0, 0))
             pg.event.pump()
@@ -125,6 +133,18 @@ class Renderer:
             else:
                 pg.draw.circle(self.surface, color, (cx, cy), half)
             pg.draw.line(self.surface, (20, 20, 20), (cx, cy), (cx + half * c, cy - half * s), 2)
+
+    def _draw_inset(self, image: np.ndarray) -> None:
+        pg = self.pygame
+        rows, cols = image.shape[:2]
+        width = round(_INSET * self.size[0])
+        height = max(1, round(width * rows / cols))
+        # surfarray is indexed (x, y): transpose the (rows, cols) image, grey to RGB.
+        grey = pg.surfarray.make_surface(np.repeat(image.T[:, :, None], 3, axis=2))
+        inset = pg.transform.smoothscale(grey, (width, height))
+        left, top = self.size[0] - width - 6, 28
+        self.surface.blit(inset, (left, top))
+        pg.draw.rect(self.surface, (20, 20, 20), (left - 1, top - 1, width + 2, height + 2), 1)
 
     def _draw_guesses(
         self,

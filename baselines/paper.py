@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -84,12 +85,16 @@ class RunOutcome:
     deviation: tuple[float, ...]
 
 
-def run(method: str, seed: int) -> RunOutcome:
-    """One run of experiment ``method`` with episode seed ``seed``."""
+def run(method: str, seed: int, overrides: dict[str, Any] | None = None) -> RunOutcome:
+    """One run of experiment ``method`` with episode seed ``seed``; ``overrides`` (keyword
+    overrides of :func:`anonloc_env.make_config`, e.g. ``{"camera": {"source": "image"}}``)
+    change the preset."""
     if method not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {method!r}; valid: {list(EXPERIMENTS)}")
     # The env's reward is not used here: the cheap one spares it the referee identifier.
-    env = anonloc_env.parallel_env(EXPERIMENTS[method].preset, reward_fn=anonloc_env.EnergyCost())
+    env = anonloc_env.parallel_env(
+        EXPERIMENTS[method].preset, reward_fn=anonloc_env.EnergyCost(), **(overrides or {})
+    )
     config = env.config
     n = config.n_robots
     localizer_class, _ = POLICIES[method]
