@@ -63,7 +63,7 @@ class TrainConfig:
     n_steps: int = 128
     """Steps per slot between two updates."""
     batch_size: int = 1024
-    """Minibatch size (samples)."""
+    """Minibatch size (samples; at most one rollout, ``n_steps`` x slots)."""
     n_epochs: int = 4
     """Passes over each rollout."""
     gamma: float = 0.99
@@ -152,7 +152,7 @@ def build_model(config: TrainConfig, vec_env: Any) -> Any:
         vec_env,
         learning_rate=config.learning_rate,
         n_steps=config.n_steps,
-        batch_size=config.batch_size,
+        batch_size=min(config.batch_size, config.n_steps * vec_env.num_envs),
         n_epochs=config.n_epochs,
         gamma=config.gamma,
         ent_coef=config.ent_coef,
