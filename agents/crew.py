@@ -1,11 +1,14 @@
 """The robots of one env driven by one shared learning policy: conditions, commands, rewards.
 
 A :class:`Crew` owns one :class:`~anonloc_env.env.AnonLocEnv` and a :class:`baselines.Team`
-whose localizer is every robot's own ``bayes`` identifier. The policy's actions become commands
-through the condition's excitation (:func:`condition_excitation`): in ``free`` motion the action
-is the command; on ``swarm`` duty every robot follows one shared command stream and the action
-is only a deviation of at most ``budget`` of the robot's limits. The crew returns the policy
-observations of :mod:`agents.observation` and the reward of :func:`Crew.step`.
+whose localizer is every robot's own ``bayes`` identifier. The policy decides at every picture:
+its action ``(v / v_max, w / omega_max)`` is held until the next picture (:class:`HeldCommands`,
+which also reverses out of bumps), so one decision is one picture interval. The action becomes
+the commands through the condition's excitation (:func:`condition_excitation`): in ``free``
+motion the held action is the command; on ``swarm`` duty every robot follows one shared command
+stream and the held action is only a deviation of at most ``budget`` of the robot's limits. The
+crew returns the policy observations of :mod:`agents.observation` and the reward of
+:meth:`Crew.step`.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from agents.observation import BeliefObserver, information, true_rows
 from anonloc_env.actions import to_actions, to_commands
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import energy
-from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations import BackOff, DistinctSettings, Excitation, SwarmDuty
 from baselines.localizers import BayesLocalizer
 from baselines.observations import Step
 from baselines.policies import Team
@@ -31,11 +34,23 @@ REWARDS = ("log_belief", "information")
 LOG_BELIEF_FLOOR = 1e-3
 
 
-class ExternalCommands(Excitation):
-    """An excitation whose commands are set from outside (a learning policy's actions)."""
+class HeldCommands(BackOff):
+    """The policy's command, held from one picture to the next, with a reflex: after a bump the
+    robot reverses out of it (:class:`baselines.excitations.BackOff`) and then resumes the
+    command.
 
-    def __init__(self) -> None:
+    The policy decides once per picture: between two pictures nothing new is learnt about the
+    robot's identity, and a command held over the interval is what makes the robot's
+    displacement its own (the hand-designed ``distinct`` excitation does the same).
+
+    Args:
+        back: the reverse drive after a bump (``DistinctSettings``' ``back_speed``,
+            ``back_time`` and ``turn``).
+    """
+
+    def __init__(self, back: DistinctSettings | None = None) -> None:
         super().__init__()
+        self.back = back or DistinctSettings()
         self.v = np.zeros(0)
         self.w = np.zeros(0)
 
@@ -43,13 +58,15 @@ class ExternalCommands(Excitation):
         super().reset(rngs)
         self.v = np.zeros(self.n)
         self.w = np.zeros(self.n)
+        self._reset_backoff()
 
     def set(self, v: np.ndarray, w: np.ndarray) -> None:
-        """The commands ``(R,)`` (m/s, rad/s) of the next step."""
+        """Hold the commands ``(R,)`` (m/s, rad/s) until the next :meth:`set`."""
         self.v, self.w = v, w
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        return self.v, self.w
+        self._start_backoff(step)
+        return self._apply_backoff(dt, self.v, self.w)
 
 
 def condition_excitation(
@@ -67,7 +84,8 @@ def condition_excitation(
 
 @dataclass(frozen=True)
 class StepResult:
-    """One step of a crew: the policy observations, rewards and ground-truth scores."""
+    """One decision of a crew (one picture interval): the policy observations, rewards and
+    ground-truth scores."""
 
     observation: dict[str, np.ndarray]
     reward: np.ndarray
@@ -75,7 +93,7 @@ class StepResult:
     correct: np.ndarray  # (R,) decided on the true row at this step's newest picture
     present: np.ndarray  # (R,) in that picture
     new_picture: bool
-    energy: np.ndarray  # (R,) wheel travel in this step (m)
+    energy: np.ndarray  # (R,) wheel travel in this interval (m)
 
 
 class Crew:
@@ -116,8 +134,8 @@ class Crew:
         self.information_weight = information_weight
         self.capacity = int(env.camera.capacity)
         self.localizer = BayesLocalizer(config, self.n)
-        self.external = ExternalCommands()
-        excitation = condition_excitation(condition, self.external, budget)
+        self.held = HeldCommands()
+        excitation = condition_excitation(condition, self.held, budget)
         self.team = Team(config, self.localizer, excitation)
         self.observer = BeliefObserver(self.localizer, self.capacity)
         self._scale = np.array([config.robot.v_max, config.robot.omega_max])
@@ -141,22 +159,30 @@ class Crew:
         return self.observer.observe(step, first=True)
 
     def step(self, actions: np.ndarray) -> StepResult:
-        """Apply the policy's actions ``(R, 2)`` (in [-1, 1]; clipped) for one control step."""
+        """Hold the policy's actions ``(R, 2)`` (in [-1, 1]; clipped) until the next picture (or
+        the episode's end); the reward adds up the steps of that interval."""
         assert self._step is not None, "reset() first"
         clipped = np.clip(np.asarray(actions, np.float64), -1.0, 1.0)
         own = clipped * self._scale
-        self.external.set(own[:, 0], own[:, 1])
-        v, w = self.team.excitation.commands(self._step, self.config.dt)
-        env_actions = to_actions(v, w, self.config.robot)
-        self.team.commanded(env_actions)
+        self.held.set(own[:, 0], own[:, 1])
         self.observer.last_command[:] = clipped  # what the policy asked (before any duty)
-        observations, rewards, _, truncations, infos = self.env.step(
-            dict(zip(self.agents, env_actions, strict=True))
-        )
-        step = self.team.observe([observations[a] for a in self.agents])
-        self._step = step
-        energy_reward = np.fromiter(rewards.values(), np.float64, self.n)
-        reward = energy_reward.copy()
+        reward = np.zeros(self.n)
+        spent = np.zeros(self.n)
+        robot, dt = self.config.robot, self.config.dt
+        while True:
+            v, w = self.team.excitation.commands(self._step, dt)
+            env_actions = to_actions(v, w, robot)
+            self.team.commanded(env_actions)
+            observations, rewards, _, truncations, infos = self.env.step(
+                dict(zip(self.agents, env_actions, strict=True))
+            )
+            spent += energy(self.config, *to_commands(env_actions, robot))
+            reward += np.fromiter(rewards.values(), np.float64, self.n)
+            step = self.team.observe([observations[a] for a in self.agents])
+            self._step = step
+            truncated = bool(truncations[self.agents[0]])
+            if step.new_picture or truncated:
+                break
         truth = true_rows(infos, self.agents)
         if step.new_picture:
             self.observer.on_picture(step)
@@ -167,14 +193,13 @@ class Crew:
                 identity = information(self._belief_true, belief)
             reward += self.information_weight * identity
             self._belief_true = belief
-        estimate = self.localizer.estimate
         present = truth >= 0
         return StepResult(
             observation=self.observer.observe(step),
             reward=reward,
-            truncated=bool(truncations[self.agents[0]]),
-            correct=present & (estimate == truth),
+            truncated=truncated,
+            correct=present & (self.localizer.estimate == truth),
             present=present,
             new_picture=step.new_picture,
-            energy=energy(self.config, *to_commands(env_actions, self.config.robot)),
+            energy=spent,
         )

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.crew import condition_excitation
+from agents.crew import HeldCommands, condition_excitation
 from agents.observation import BeliefObserver
 from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
@@ -22,8 +22,10 @@ from baselines.localizers import BayesLocalizer, Localizer
 from baselines.observations import Step
 
 
-class LearnedExcitation(Excitation):
-    """The robots' commands from a trained SB3 policy reading its belief-annotated observations.
+class LearnedExcitation(HeldCommands):
+    """The robots' commands from a trained SB3 policy reading its belief-annotated observations:
+    at every picture the policy chooses each robot's command, held until the next picture, with
+    the reverse-out-of-bumps reflex of :class:`agents.crew.HeldCommands` (as in training).
 
     It must be the excitation of a team whose localizer is a ``BayesLocalizer`` (the policy reads
     that localizer's beliefs, see :mod:`agents.observation`).
@@ -31,7 +33,8 @@ class LearnedExcitation(Excitation):
     Args:
         model: a trained SB3 model (``predict(observation, deterministic=True)``).
         config: the scenario.
-        deterministic: act on the policy's mean action (default) or sample it.
+        deterministic: act on the policy's mean action (default: every robot's randomness comes
+            from its own dice, so the choice is reproducible) or sample it (torch's generator).
     """
 
     def __init__(self, model: Any, config: EnvConfig, deterministic: bool = True) -> None:
@@ -49,44 +52,49 @@ class LearnedExcitation(Excitation):
             )
         self._scale = np.array([config.robot.v_max, config.robot.omega_max])
         self.observer: BeliefObserver | None = None
-        self._first = True
 
     def reset(self, rngs: Any) -> None:
         super().reset(rngs)
         self.observer = None  # rebuilt at the first picture, on the team's localizer
-        self._first = True
 
     def on_picture(self, step: Step, localizer: Localizer) -> None:
         if not isinstance(localizer, BayesLocalizer):
             raise TypeError("a learned agent reads a bayes localizer's beliefs; use policy 'agent'")
+        first = self.observer is None
         if self.observer is None:
             self.observer = BeliefObserver(localizer, self.capacity)
             self.observer.reset(self.rngs)
         self.observer.on_picture(step)
-
-    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        if self.observer is None:
-            raise RuntimeError("the agent acts only after its team's first picture")
-        observation = self.observer.observe(step, first=self._first)
-        self._first = False
+        observation = self.observer.observe(step, first=first)
         actions, _ = self.model.predict(observation, deterministic=self.deterministic)
         actions = np.clip(np.asarray(actions, np.float64), -1.0, 1.0).reshape(self.n, 2)
         self.observer.last_command[:] = actions  # what the policy asked (before any duty)
         commands = actions * self._scale
-        return commands[:, 0], commands[:, 1]
+        self.set(commands[:, 0], commands[:, 1])
 
 
-def load_agent(path: str | Path, config: EnvConfig) -> Excitation:
-    """The excitation of the agent saved at ``path`` (an ``agent.zip`` or its run folder), in the
-    condition it was trained for (``free``, or ``swarm`` duty with its budget)."""
-    from stable_baselines3 import PPO
-
+def agent_file(path: str | Path) -> Path:
+    """The ``agent.zip`` that ``path`` names (the file, or its run folder)."""
     path = Path(path)
     if path.is_dir():
         path = path / "agent.zip"
     if not path.is_file():
         raise FileNotFoundError(f"no saved agent at {path}")
-    model = PPO.load(path, device="cpu")
+    return path
+
+
+def load_model(path: str | Path) -> Any:
+    """The SB3 model saved at ``path`` (unpickled by SB3: load only files you trust)."""
+    from stable_baselines3 import PPO
+
+    return PPO.load(agent_file(path), device="cpu")
+
+
+def load_agent(path: str | Path, config: EnvConfig) -> Excitation:
+    """The excitation of the agent saved at ``path`` (an ``agent.zip`` or its run folder), in the
+    condition it was trained for (``free``, or ``swarm`` duty with its budget)."""
+    path = agent_file(path)
+    model = load_model(path)
     record = path.parent / "config.json"
     train = json.loads(record.read_text())["train"] if record.is_file() else {}
     own = LearnedExcitation(model, config)

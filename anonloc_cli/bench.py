@@ -195,22 +195,20 @@ def summary(rows: Sequence[dict[str, Any]]) -> tuple[list[str], list[list[str]]]
 
 def identified_at(
     rows: Sequence[dict[str, Any]], fraction: float = 0.99
-) -> tuple[int | None, float | None]:
-    """One episode's rows (one per robot): the number of pictures until at least ``fraction`` of
-    the robots present in a picture are decided on their true row, and the mean wheel travel per
-    robot until then (m); ``(None, None)`` if that never happens."""
-    correct = np.array([r["correct_by_picture"] for r in rows], bool)
-    present = np.array([r["present_by_picture"] for r in rows], bool)
-    energy = np.array([r["energy_by_picture"] for r in rows], float)
-    if correct.size == 0:
-        return None, None
-    counted = present.sum(axis=0)
-    share = np.where(counted > 0, (correct & present).sum(axis=0) / np.maximum(counted, 1), 0.0)
-    reached = np.flatnonzero(share >= fraction)
-    if len(reached) == 0:
-        return None, None
-    first = int(reached[0])
-    return first + 1, float(energy[:, first].mean())
+) -> tuple[int | None, float]:
+    """One episode's rows (one per robot): :func:`baselines.scoring.first_identified`, the
+    picture (0: the one at reset) at which ``fraction`` of the robots present are decided on
+    their true row, and the mean wheel travel per robot until then (m)."""
+    from baselines.scoring import first_identified
+
+    if not rows:
+        return None, float("nan")
+    return first_identified(
+        np.array([r["correct_by_picture"] for r in rows], bool),
+        np.array([r["present_by_picture"] for r in rows], bool),
+        np.array([r["energy_by_picture"] for r in rows], float),
+        fraction,
+    )
 
 
 def episode_summary(
@@ -228,13 +226,13 @@ def episode_summary(
         "scenario",
         "episodes",
         f"reached {percent}",
-        f"pictures to {percent} (95 % CI)",
+        f"picture reaching {percent} (95 % CI)",
         "energy per robot, m (95 % CI)",
     ]
     out = []
     for (policy, scenario), by_seed in episodes.items():
         results = [identified_at(mine, fraction) for mine in by_seed.values()]
-        reached = [(p, e) for p, e in results if p is not None and e is not None]
+        reached = [(p, e) for p, e in results if p is not None]
         out.append(
             [
                 policy,
@@ -320,9 +318,10 @@ def main(
             "",
             tables.markdown(headers, table),
             "",
-            "Per episode: the first picture at which at least 99 % of the robots in it are decided "
-            "(belief >= 0.99) on their true row, and the mean wheel travel per robot until then; "
-            "means over the episodes that reached it (95 % normal interval).",
+            "Per episode: the first picture (0: the one at reset) at which at least 99 % of the "
+            "robots in it are decided (belief >= 0.99) on their true row, and the mean wheel "
+            "travel per robot until then; means over the episodes that reached it (95 % normal "
+            "interval).",
             "",
         ]
     text = "\n".join([*lines, provenance.markdown(record)])

@@ -43,23 +43,41 @@ def pictures_to_identify(
     Raises:
         ValueError: ``fraction`` outside (0, 1].
     """
+    pictures = sorted({rec.picture for rec in result.records if rec.localizer == localizer})
+    robots = sorted({rec.robot for rec in result.records if rec.localizer == localizer})
+    column = {picture: k for k, picture in enumerate(pictures)}
+    correct = np.zeros((len(robots), len(pictures)), bool)
+    present = np.zeros_like(correct)
+    energy = np.zeros(correct.shape)
+    for rec in result.records:
+        if rec.localizer == localizer:
+            at = (rec.robot, column[rec.picture])
+            correct[at], present[at], energy[at] = rec.correct, rec.true_index >= 0, rec.energy
+    first, spent = first_identified(correct, present, energy, fraction)
+    return (None, math.nan) if first is None else (pictures[first], spent)
+
+
+def first_identified(
+    correct: np.ndarray, present: np.ndarray, energy: np.ndarray, fraction: float = 0.99
+) -> tuple[int | None, float]:
+    """The array form of :func:`pictures_to_identify`: ``(R, P)`` arrays of each robot at each
+    picture (decided on its true row; in the picture; wheel travel since reset, m). Returns the
+    first picture's column at which at least ``ceil(fraction * present)`` robots are correct, and
+    the mean energy of all robots then; ``(None, nan)`` if none.
+
+    Raises:
+        ValueError: ``fraction`` outside (0, 1].
+    """
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"fraction must be in (0, 1], got {fraction}")
-    present: dict[int, int] = {}
-    correct: dict[int, int] = {}
-    spent: dict[int, list[float]] = {}
-    for rec in result.records:
-        if rec.localizer != localizer:
-            continue
-        spent.setdefault(rec.picture, []).append(rec.energy)
-        if rec.true_index >= 0:
-            present[rec.picture] = present.get(rec.picture, 0) + 1
-            correct[rec.picture] = correct.get(rec.picture, 0) + int(rec.correct)
-    for picture in sorted(present):
-        # An integer comparison: 99 of 100 robots reach 0.99 despite rounding.
-        if correct[picture] >= math.ceil(fraction * present[picture] - 1e-9):
-            return picture, float(np.mean(spent[picture]))
-    return None, math.nan
+    counted = present.sum(axis=0)
+    hits = (correct & present).sum(axis=0)
+    # An integer comparison: 99 of 100 robots reach 0.99 despite rounding.
+    reached = np.flatnonzero((counted > 0) & (hits >= np.ceil(fraction * counted - 1e-9)))
+    if len(reached) == 0:
+        return None, math.nan
+    first = int(reached[0])
+    return first, float(energy[:, first].mean())
 
 
 @dataclass(frozen=True)

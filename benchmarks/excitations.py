@@ -17,9 +17,12 @@ Conditions:
 Usage::
 
     python benchmarks/excitations.py --robots 10 100 --conditions free swarm --episodes 30
+    python benchmarks/excitations.py --robots 10 --conditions free --agent runs/free-10/agent.zip
 
-To compare another excitation (e.g. a learned policy), pass it to :func:`run` in ``extra``
-(name -> a function of the episode seed returning the ``Excitation``).
+``--agent PATH`` adds a saved learned agent (``agents``, the ``rl`` extra) as the excitation
+``agent`` (on swarm duty it is the deviation, as it was trained). To compare another excitation,
+pass it to :func:`run` in ``extra`` (name -> a function of the episode seed returning the
+``Excitation``).
 """
 
 from __future__ import annotations
@@ -98,14 +101,25 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--pictures", type=int, default=40, help="episode length (pictures)")
     parser.add_argument("--budget", type=float, default=0.2, help="swarm deviation budget")
+    parser.add_argument("--agent", help="a saved agent (agent.zip) to add as 'agent'")
     args = parser.parse_args()
+    names = list(args.excitations)
+    extra: dict[str, Callable[[int], Excitation]] = {}
+    if args.agent:
+        from agents.policy import LearnedExcitation, load_model
+
+        model = load_model(args.agent)
+        names.insert(0, "agent")
     print(
         "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) | s |"
     )
     print("|---|---|---|---|---|---|---|")
     for n in args.robots:
         for condition in args.conditions:
-            table = run(n, condition, args.excitations, args.episodes, args.pictures, args.budget)
+            if args.agent:
+                config = scenario(n, args.pictures)
+                extra["agent"] = lambda seed, config=config: LearnedExcitation(model, config)
+            table = run(n, condition, names, args.episodes, args.pictures, args.budget, extra)
             for name, (s, seconds) in table.items():
                 print(
                     f"| {n} | {condition} | {name} | {s.identified}/{s.episodes} | {s.pictures} "

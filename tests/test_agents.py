@@ -78,9 +78,10 @@ def test_time_limit_ends_are_truncations_with_the_terminal_observation() -> None
     venv.seed(1)
     venv.reset()
     actions = np.zeros((venv.num_envs, 2), np.float32)
-    for step in range(1, 33):
+    # One decision per picture (every 5 steps): 32 steps are 6 whole intervals and 2 steps.
+    for step in range(1, 8):
         obs, _, dones, infos = venv.step(actions)
-        if step < 32:
+        if step < 7:
             assert not dones.any()
             assert not any("terminal_observation" in info for info in infos)
     assert dones.all()
@@ -88,8 +89,8 @@ def test_time_limit_ends_are_truncations_with_the_terminal_observation() -> None
         assert info["TimeLimit.truncated"] is True
         terminal = info["terminal_observation"]
         assert set(terminal) == {"rows", "mask", "own"}
-        assert terminal["own"][3] > 0.0  # time since the picture: the old episode's last step
-        assert info["episode"]["l"] == 32
+        assert terminal["own"][3] > 0.0  # cut between two pictures
+        assert info["episode"]["l"] == 7
     # The returned observation is the new episode's first: its picture was just taken.
     np.testing.assert_array_equal(obs["own"][:, 3], 0.0)
     np.testing.assert_array_equal(obs["own"][:, 8:10], 0.0)  # no command sent yet
@@ -99,7 +100,7 @@ def test_seeding_goes_through_reset_and_copies_share_no_random_state() -> None:
     a = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 70, seed=3)
     b = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 70, seed=3)
     c = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 8), 70, seed=3)
-    assert _same(a, b)  # same seed: bit-identical, across automatic resets (steps 32, 64)
+    assert _same(a, b)  # same seed: bit-identical, across automatic resets
     assert not _same(a, c)
     venv = _seeded(AnonLocVecEnv(small_config(), n_envs=2), 7)
     venv.reset()
@@ -115,13 +116,13 @@ def _seeded(venv: AnonLocVecEnv, seed: int) -> AnonLocVecEnv:
 
 
 def test_swarm_duty_adds_the_policy_as_a_bounded_deviation_of_the_shared_stream() -> None:
-    from agents.crew import ExternalCommands
+    from agents.crew import HeldCommands
     from baselines.excitations import Still, SwarmDuty
     from baselines.observations import Step
 
     n, v_max, omega_max = 4, 0.5, 1.0
     step = Step(np.zeros((0, 3)), False, np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)), 0.0)
-    own = ExternalCommands()
+    own = HeldCommands()
     duty = SwarmDuty(own, budget=0.2, common_seed=9)
     alone = SwarmDuty(Still(), budget=0.2, common_seed=9)
     for excitation in (duty, alone):
