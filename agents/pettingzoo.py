@@ -10,7 +10,7 @@ views of its batched arrays.
 |---|---|
 | Agents | `robot_0` ... `robot_{N-1}`, all alive for the whole episode |
 | Action shape | `(2,)` float32 in [-1, 1] (see :meth:`agents.crew.Crew.step`) |
-| Observation | `Dict`: `rows (D, 6)`, `mask (D,)`, `own (10,)`; or flat `(7 D + 10,)` |
+| Observation | `Dict`: `rows (D, 6)`, `mask (D,)`, `own (12,)`; or flat `(7 D + 12,)` |
 | Import | `from agents.pettingzoo import BeliefParallelEnv` |
 """
 
@@ -39,7 +39,7 @@ def flat_size(capacity: int) -> int:
 
 
 def flatten(observation: dict[str, np.ndarray]) -> np.ndarray:
-    """``(R, 7 D + 10)`` float32: the batched ``rows`` (row-major), ``mask`` and ``own``.
+    """``(R, 7 D + 12)`` float32: the batched ``rows`` (row-major), ``mask`` and ``own``.
 
     Rows that hold no detection are already zero, so this is what
     :class:`agents.features.FlatExtractor` reads."""
@@ -61,11 +61,14 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
     ``Dict`` space).
 
     ## Rewards
-    The crew's: the environment's energy term every step, plus ``information_weight`` times the
-    nats gained about the robot's identity at each new picture.
+    The crew's (:meth:`agents.crew.Crew.step`): one step here is one picture interval (the
+    action is held until the next picture); the reward adds up the energy term of its control
+    steps and, at the picture, ``information_weight`` times the identity term (by default the log
+    of the belief the robot gives its true row).
 
     ## Episode End
-    No terminations; every agent is truncated after ``max_cycles`` steps.
+    No terminations; every agent is truncated when the env's ``max_cycles`` control steps are
+    spent (possibly between two pictures).
 
     ## Infos
     ``infos[agent]`` holds ground truth, for scoring only: ``correct`` (the robot's identifier
