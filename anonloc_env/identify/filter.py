@@ -1,0 +1,411 @@
+"""The identifier: a multi-hypothesis "which row is me" filter for R robots at once, built on the
+model of :mod:`anonloc_env.identify.model` and the tracks of :mod:`anonloc_env.identify.tracks`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env.camera import Picture
+from anonloc_env.geometry import rotate, wrap_angle
+from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
+from anonloc_env.identify.tracks import (
+    Child,
+    Geometry,
+    Tracks,
+    direction_only,
+    kalman,
+    orientation,
+    scale_free,
+)
+from anonloc_env.neighbours import expand_ranges, pairs_within
+from anonloc_env.odometry import Interval
+
+#: Hypotheses whose weight falls this many nats below their robot's best are dropped
+#: (a factor 3e-7: what is dropped cannot move a 0.99 decision).
+PRUNE_NATS = 15.0
+#: Only a robot's heaviest tracks are continued through a miss; the rest of their weight
+#: returns to "position unknown" (kept, never lost).
+MISSED_PER_ROBOT = 32
+
+
+class Identifier:
+    """Multi-hypothesis "which row is me" filter for R robots at once.
+
+    Call :meth:`update` with every picture (and each robot's motion since the previous one), then
+    read :meth:`belief`. The robots share nothing but the pictures: robot i's belief depends only
+    on the pictures and ``interval`` row i.
+
+    Args:
+        model: the sensor model (see :class:`SensorModel`).
+        n_robots: R, the number of robots identified at once.
+        max_tracks: most hypotheses kept per robot (the best ones).
+    """
+
+    def __init__(self, model: SensorModel, n_robots: int, max_tracks: int = 1024) -> None:
+        self.model = model
+        self.n = n_robots
+        self.max_tracks = max_tracks
+        # A robot is never certain to be in a picture (it may leave the view): a floor of 1e-6
+        # keeps its identity recoverable without costing more than one miss per track.
+        self.log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
+        self.log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything: no picture seen."""
+        self.tracks = Tracks.empty()
+        self.uniform = np.full(self.n, -np.inf)  # log weight of each row of the newest picture
+        self.unanchored = np.zeros(self.n)  # log weight of "position unknown"
+        self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
+        self._belief: np.ndarray | None = None
+        self._missing = np.ones(self.n)
+        self.pictures = 0
+
+    # -- noise floors: float32 observations limit what "noise free" can mean ---------------------
+    def _pixel_var(self, rows: np.ndarray) -> float:
+        extent = float(np.abs(rows[:, :2]).max()) if len(rows) else 1.0
+        floor = 1e-4 + 1e-6 * extent
+        return self.model.pixel_noise**2 + floor**2
+
+    def _theta_var(self) -> float:
+        return self.model.orientation_noise**2 + 1e-10
+
+    def update(self, rows: np.ndarray, interval: Interval | None = None) -> None:
+        """Take in a picture.
+
+        Args:
+            rows: ``(n, 3)`` detections ``(u, v, theta)`` of the new picture (no padding).
+            interval: each robot's motion since the previous picture; ignored for the first one.
+        """
+        rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+        n_rows = len(rows)
+        log_bg = math.log(max(n_rows - self.model.p_detect, 0.5) / self.model.image_area)
+        if self.rows is None or interval is None:
+            # A first picture (or one with no known motion before it): start from "unknown".
+            parts: list[Tracks] = []
+            before = np.zeros(self.n)
+            unanchored = before + self.log_miss
+        else:
+            parts, unanchored = self._extend(rows, interval, log_bg)
+            before = self.unanchored
+        # "Position unknown" before the picture: now seen at any row alike, or still unknown.
+        fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
+        self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
+        self.unanchored = unanchored
+        self.tracks = Tracks.concat(parts) if parts else Tracks.empty()
+        self.rows = rows
+        self.pictures += 1
+        self._normalise_and_prune()
+        self._compute_belief()
+
+    # -- one interval ----------------------------------------------------------------------------
+    def _extend(
+        self, rows: np.ndarray, interval: Interval, log_bg: float
+    ) -> tuple[list[Tracks], np.ndarray]:
+        model = self.model
+        assert self.rows is not None
+        prev = self.rows
+        pix_var = self._pixel_var(np.concatenate([prev, rows]))
+        var_d, _ = interval.variances(model.odometry_noise)
+        s_high = model.scale_bounds[1]
+        spread = model.scale_spread
+        # Reach of each robot in the image: its path at the largest scale plus the noise.
+        sigma_max = np.sqrt(
+            2 * pix_var + s_high**2 * var_d + (spread * s_high * interval.path) ** 2
+        )
+        push = interval.push if interval.push is not None else 0.0
+        travel = interval.path * (1 + GATE_SIGMAS * model.odometry_noise) + push
+        reach = s_high * travel + GATE_SIGMAS * sigma_max
+        radius = float(reach.max()) if len(reach) else 0.0
+        i_pair, j_pair, dist = pairs_within(prev[:, :2], rows[:, :2], max(radius, 1e-9))
+        parts: list[Tracks] = []
+        unanchored = self.unanchored + self.log_miss  # unknown before, missed again
+
+        # 1. Explicit tracks anchored at a row of the previous picture: candidate rows by pairs.
+        tracks = self.tracks
+        anchored = np.flatnonzero(tracks.row >= 0)
+        if len(anchored):
+            starts = np.searchsorted(i_pair, tracks.row[anchored], side="left")
+            ends = np.searchsorted(i_pair, tracks.row[anchored], side="right")
+            parent = np.repeat(anchored, ends - starts)
+            cand = j_pair[expand_ranges(starts, ends - starts)]
+            parts.append(self._children(tracks.take(parent), rows, cand, interval, pix_var, log_bg))
+        # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
+        missed = np.flatnonzero(tracks.row < 0)
+        if len(missed):
+            a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(radius, 1e-9))
+            parts.append(self._children(tracks.take(missed[a]), rows, b, interval, pix_var, log_bg))
+        # 3. Every explicit track may be missed in the new picture.
+        if len(tracks):
+            continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var)
+            parts.append(continued)
+            np.logaddexp.at(unanchored, lost_slot, lost_logw)
+        # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair.
+        live = np.flatnonzero(np.isfinite(self.uniform))
+        if len(live) and len(i_pair):
+            parts.append(
+                self._from_uniform(
+                    live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
+                )
+            )
+            # ... or the robot was missed then: its position is unknown again.
+            lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
+            unanchored[live] = np.logaddexp(unanchored[live], lost)
+        return [p for p in parts if len(p)], unanchored
+
+    def _from_uniform(
+        self,
+        live: np.ndarray,
+        prev: np.ndarray,
+        rows: np.ndarray,
+        i_pair: np.ndarray,
+        j_pair: np.ndarray,
+        dist: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        var_d: np.ndarray,
+        log_bg: float,
+    ) -> Tracks:
+        """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion."""
+        model = self.model
+        s_low, s_high = model.scale_bounds
+        rho0 = np.hypot(*interval.d[live].T)
+        push_iso = push_isotropic(interval)[live]
+        sigma = np.sqrt(
+            s_high**2 * push_iso
+            + 2 * pix_var
+            + s_high**2 * var_d[live]
+            + (model.scale_spread * s_high * rho0) ** 2
+        )
+        lo = s_low * rho0 - GATE_SIGMAS * sigma
+        hi = s_high * rho0 + GATE_SIGMAS * sigma
+        by_length = np.argsort(dist, kind="stable")
+        sorted_len = dist[by_length]
+        start = np.searchsorted(sorted_len, lo, side="left")
+        stop = np.searchsorted(sorted_len, hi, side="right")
+        counts = stop - start
+        pick = by_length[expand_ranges(start, counts)]
+        slot = np.repeat(live, counts)
+        p_row = i_pair[pick]
+        n_par = len(pick)
+        if model.orientation:
+            theta = prev[p_row, 2]
+            p_tt = np.full(n_par, self._theta_var())
+        else:
+            theta = np.full(n_par, np.nan)
+            p_tt = np.full(n_par, np.inf)
+        log_scale = math.log(model.scale) if model.scale is not None else np.nan
+        known = model.scale is not None
+        parent = Tracks(
+            slot=slot,
+            row=p_row,
+            pos=prev[p_row, :2],
+            pos_var=np.full(n_par, pix_var),
+            theta=theta,
+            p_tt=p_tt,
+            log_s=np.full(n_par, log_scale),
+            p_ts=np.zeros(n_par),
+            p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
+            logw=self.uniform[slot],
+        )
+        return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
+
+    def _missed(
+        self, tracks: Tracks, interval: Interval, pix_var: float
+    ) -> tuple[Tracks, np.ndarray, np.ndarray]:
+        """Continue every track through a miss: predicted position if its heading is known,
+        otherwise its weight returns to "position unknown"."""
+        logw = tracks.logw + self.log_miss
+        # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
+        rank = np.arange(len(tracks)) - np.searchsorted(tracks.slot, tracks.slot, side="left")
+        knows = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s) & (rank < MISSED_PER_ROBOT)
+        k = np.flatnonzero(knows)
+        slot = tracks.slot[k]
+        d = interval.d[slot]
+        s = np.exp(tracks.log_s[k])
+        var_d, var_dphi = interval.variances(self.model.odometry_noise)
+        rho = np.hypot(*d.T)
+        moved = rotate(d, tracks.theta[k]) * s[:, None]
+        continued = Tracks(
+            slot=slot,
+            row=np.full(len(k), -1),
+            pos=tracks.pos[k] + moved,
+            pos_var=tracks.pos_var[k]
+            + s**2 * (var_d[slot] + push_isotropic(interval)[slot])
+            + (s * rho) ** 2 * tracks.p_tt[k],
+            theta=wrap_angle(tracks.theta[k] + interval.dphi[slot]),
+            p_tt=tracks.p_tt[k] + var_dphi[slot],
+            log_s=tracks.log_s[k],
+            p_ts=tracks.p_ts[k],
+            p_ss=tracks.p_ss[k],
+            logw=logw[k],
+        )
+        lost = np.flatnonzero(~knows)
+        return continued, tracks.slot[lost], logw[lost]
+
+    def _children(
+        self,
+        parent: Tracks,
+        rows: np.ndarray,
+        cand: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """Extend each parent track by candidate row ``cand`` (same length): weight and state."""
+        model = self.model
+        keep = self._plausible(parent, rows[cand], interval, pix_var)
+        parent, cand = parent.take(keep), cand[keep]
+        if len(cand) == 0:
+            return Tracks.empty()
+        z = rows[cand]
+        geo = Geometry.of(parent, z, interval, model, pix_var)
+        child = Child.start(parent)
+        heading_known = np.isfinite(parent.theta)
+        scale_known = np.isfinite(parent.log_s)
+        s_low, s_high = model.scale_bounds
+        # A. heading unknown, scale known: the ring.
+        a = ~heading_known & scale_known
+        child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
+        learn = a & ~geo.still & (geo.r > 0)
+        child.heading_from_displacement(learn, geo)
+        # C. heading and scale unknown: any length in the scale range, log-uniform scale.
+        c = ~heading_known & ~scale_known
+        scale_free(c, geo, child, s_low, s_high)
+        learn = c & ~geo.still & (geo.r > 0)
+        child.heading_from_displacement(learn, geo)
+        child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
+        child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
+        child.p_ts[learn] = 0.0
+        # D. heading known, scale unknown: the direction is tested, the length sets the scale.
+        dd = heading_known & ~scale_known
+        if dd.any():
+            direction_only(dd, geo, parent, child, s_low, s_high)
+        # B. heading known, scale known or estimated: extended Kalman filter on (theta, log s).
+        b = heading_known & scale_known
+        if b.any():
+            kalman(b, geo, parent, child)
+        # The detected heading, if any, is one more measurement.
+        if model.orientation:
+            orientation(z[:, 2], self._theta_var(), child.theta, child.p_tt, child.loglik)
+        logw = parent.logw + self.log_pd + child.loglik - log_bg
+        return Tracks(
+            slot=parent.slot,
+            row=cand,
+            pos=z[:, :2].copy(),
+            pos_var=np.full(len(cand), pix_var),
+            theta=wrap_angle(child.theta),
+            p_tt=child.p_tt,
+            log_s=child.log_s,
+            p_ts=child.p_ts,
+            p_ss=child.p_ss,
+            logw=logw,
+        ).take(np.flatnonzero(np.isfinite(logw)))
+
+    def _plausible(
+        self, parent: Tracks, z: np.ndarray, interval: Interval, pix_var: float
+    ) -> np.ndarray:
+        """Indices of the candidates worth scoring: a cheap, generous test (every variance at
+        its largest) drops those no weighting could keep within ``PRUNE_NATS`` of the best."""
+        slot = parent.slot
+        d = interval.d[slot]
+        s_high = self.model.scale_bounds[1]
+        var_d, var_dphi = interval.variances(self.model.odometry_noise)
+        push = interval.push[slot] if interval.push is not None else 0.0
+        rho = s_high * np.hypot(*d.T)
+        var = (
+            pix_var
+            + parent.pos_var
+            + s_high**2 * (var_d[slot] + push**2 / 3.0)
+            + (self.model.scale_spread * rho) ** 2
+        )
+        limit = 2.0 * (2.0 * PRUNE_NATS + 5.0)  # on a chi-square: -0.5 chi2 is the log-likelihood
+        delta = z[:, :2] - parent.pos
+        known = np.isfinite(parent.theta) & np.isfinite(parent.log_s)
+        chi2 = np.zeros(len(z))
+        # Heading known: distance to the predicted point, the heading's swing added.
+        k = np.flatnonzero(known)
+        if len(k):
+            scale = np.exp(parent.log_s[k])
+            pred = rotate(d[k], parent.theta[k]) * scale[:, None]
+            spread = var[k] + (scale * np.hypot(*d[k].T)) ** 2 * parent.p_tt[k]
+            chi2[k] = ((delta[k] - pred) ** 2).sum(axis=1) / spread
+            if self.model.orientation:
+                turn = wrap_angle(z[k, 2] - parent.theta[k] - interval.dphi[slot[k]])
+                chi2[k] += turn**2 / (parent.p_tt[k] + var_dphi[slot[k]] + self._theta_var())
+        # Heading unknown, scale known: the ring.
+        ring = np.flatnonzero(~np.isfinite(parent.theta) & np.isfinite(parent.log_s))
+        if len(ring):
+            length = np.hypot(*delta[ring].T)
+            chi2[ring] = (length - np.exp(parent.log_s[ring]) * np.hypot(*d[ring].T)) ** 2 / (
+                2.0 * var[ring]
+            )
+        return np.flatnonzero(chi2 <= limit)
+
+    def _normalise_and_prune(self) -> None:
+        tracks = self.tracks
+        n_rows = 0 if self.rows is None else len(self.rows)
+        log_rows = math.log(n_rows) if n_rows else -np.inf
+        uniform_total = self.uniform + log_rows
+        best = np.maximum(uniform_total, self.unanchored)
+        if len(tracks):
+            np.maximum.at(best, tracks.slot, tracks.logw)
+        lost = ~np.isfinite(best)
+        if lost.any():  # the model ruled everything out (it does not fit): start over
+            self.unanchored[lost] = 0.0
+            best[lost] = 0.0
+        keep = tracks.logw >= best[tracks.slot] - PRUNE_NATS
+        tracks = tracks.take(np.flatnonzero(keep & ~lost[tracks.slot]))
+        # Cap the number of tracks per robot: keep the heaviest.
+        order = np.lexsort((-tracks.logw, tracks.slot))
+        tracks = tracks.take(order)
+        rank = np.arange(len(tracks)) - np.searchsorted(tracks.slot, tracks.slot, side="left")
+        tracks = tracks.take(np.flatnonzero(rank < self.max_tracks))
+        # Normalise each robot's weights to sum to one.
+        sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
+        sums += np.bincount(
+            tracks.slot, weights=np.exp(tracks.logw - best[tracks.slot]), minlength=self.n
+        )
+        total = best + np.log(sums)
+        tracks.logw = tracks.logw - total[tracks.slot]
+        self.uniform = self.uniform - total
+        self.unanchored = self.unanchored - total
+        # Implicit weights too small to matter stop costing anything.
+        self.uniform[self.uniform + log_rows < -PRUNE_NATS] = -np.inf
+        self.unanchored[self.unanchored < -PRUNE_NATS] = -np.inf
+        self.tracks = tracks
+
+    def _compute_belief(self) -> None:
+        n_rows = 0 if self.rows is None else len(self.rows)
+        belief = np.repeat(np.exp(self.uniform)[:, None], n_rows, axis=1)
+        tracks = self.tracks
+        weights = np.exp(tracks.logw)
+        seen = tracks.row >= 0
+        np.add.at(belief, (tracks.slot[seen], tracks.row[seen]), weights[seen])
+        missing = np.exp(self.unanchored) + np.bincount(
+            tracks.slot[~seen], weights=weights[~seen], minlength=self.n
+        )
+        total = belief.sum(axis=1) + missing
+        self._belief = belief / total[:, None]
+        self._missing = missing / total
+
+    def belief(self) -> np.ndarray:
+        """``(R, n)`` probability that each row of the newest picture is robot i."""
+        if self._belief is None:
+            raise RuntimeError("no picture yet: call update() first")
+        return self._belief
+
+    def missing(self) -> np.ndarray:
+        """``(R,)`` probability that robot i is not in the newest picture."""
+        return self._missing
+
+    def n_tracks(self) -> np.ndarray:
+        """``(R,)`` explicit hypotheses kept per robot (a measure of ambiguity and cost)."""
+        return np.bincount(self.tracks.slot, minlength=self.n)
+
+
+def picture_rows(picture: Picture) -> np.ndarray:
+    """The ``(n, 3)`` detection rows of a picture."""
+    return picture.detections
