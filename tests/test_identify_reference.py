@@ -106,6 +106,7 @@ CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "n", "fp"),
     list(CASES.values()),
@@ -119,6 +120,7 @@ def test_identifier_matches_the_exact_posterior(model: SensorModel, n: int, fp: 
     assert np.mean(tv <= 0.01) >= 0.95, np.sort(tv)[-10:]
 
 
+@pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
     reason="measured 81.9 % of robot-pictures within 0.01 (6 seeds); the scale-free first leg "
