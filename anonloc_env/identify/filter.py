@@ -291,7 +291,7 @@ class Identifier:
         if model.orientation:
             orientation(z[:, 2], self._theta_var(), child.theta, child.p_tt, child.loglik)
         logw = parent.logw + self.log_pd + child.loglik - log_bg
-        return Tracks(
+        out = Tracks(
             slot=parent.slot,
             row=cand,
             pos=z[:, :2].copy(),
@@ -302,7 +302,9 @@ class Identifier:
             p_ts=child.p_ts,
             p_ss=child.p_ss,
             logw=logw,
-        ).take(np.flatnonzero(np.isfinite(logw)))
+        )
+        finite = np.isfinite(logw)
+        return out if finite.all() else out.take(np.flatnonzero(finite))
 
     def _plausible(
         self, parent: Tracks, z: np.ndarray, interval: Interval, pix_var: float
