@@ -9,22 +9,22 @@ import numpy as np
 
 from anonloc_env.camera import Picture
 from anonloc_env.geometry import rotate, wrap_angle
+from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
 from anonloc_env.identify.tracks import (
     Child,
     Geometry,
     Tracks,
     direction_only,
+    group_starts,
     kalman,
     orientation,
+    rank_in_group,
     scale_free,
 )
 from anonloc_env.neighbours import expand_ranges, pairs_within
 from anonloc_env.odometry import Interval
 
-#: Hypotheses whose weight falls this many nats below their robot's best are dropped
-#: (a factor 3e-7: what is dropped cannot move a 0.99 decision).
-PRUNE_NATS = 15.0
 #: Only a robot's heaviest tracks are continued through a miss; the rest of their weight
 #: returns to "position unknown" (kept, never lost).
 MISSED_PER_ROBOT = 32
@@ -125,18 +125,29 @@ class Identifier:
 
         # 1. Explicit tracks anchored at a row of the previous picture: candidate rows by pairs.
         tracks = self.tracks
+        gate = Gate.of(tracks, interval, model, pix_var, self._theta_var())
         anchored = np.flatnonzero(tracks.row >= 0)
         if len(anchored):
             starts = np.searchsorted(i_pair, tracks.row[anchored], side="left")
             ends = np.searchsorted(i_pair, tracks.row[anchored], side="right")
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
-            parts.append(self._children(tracks.take(parent), rows, cand, interval, pix_var, log_bg))
+            keep = gate.passes(parent, rows[cand])
+            parts.append(
+                self._children(
+                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
+                )
+            )
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
             a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(radius, 1e-9))
-            parts.append(self._children(tracks.take(missed[a]), rows, b, interval, pix_var, log_bg))
+            keep = gate.passes(missed[a], rows[b])
+            parts.append(
+                self._children(
+                    tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg
+                )
+            )
         # 3. Every explicit track may be missed in the new picture.
         if len(tracks):
             continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var)
@@ -188,6 +199,10 @@ class Identifier:
         counts = stop - start
         pick = by_length[expand_ranges(start, counts)]
         slot = np.repeat(live, counts)
+        keep = uniform_gate(
+            slot, pick, i_pair, j_pair, prev, rows, interval, model, pix_var, self._theta_var()
+        )
+        pick, slot = pick[keep], slot[keep]
         p_row = i_pair[pick]
         n_par = len(pick)
         if model.orientation:
@@ -219,7 +234,7 @@ class Identifier:
         otherwise its weight returns to "position unknown"."""
         logw = tracks.logw + self.log_miss
         # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
-        rank = np.arange(len(tracks)) - np.searchsorted(tracks.slot, tracks.slot, side="left")
+        rank = rank_in_group(tracks.slot)
         knows = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s) & (rank < MISSED_PER_ROBOT)
         k = np.flatnonzero(knows)
         slot = tracks.slot[k]
@@ -256,29 +271,29 @@ class Identifier:
     ) -> Tracks:
         """Extend each parent track by candidate row ``cand`` (same length): weight and state."""
         model = self.model
-        keep = self._plausible(parent, rows[cand], interval, pix_var)
-        parent, cand = parent.take(keep), cand[keep]
         if len(cand) == 0:
             return Tracks.empty()
         z = rows[cand]
-        geo = Geometry.of(parent, z, interval, model, pix_var)
+        geo = Geometry(parent, z, interval, model, pix_var)
         child = Child.start(parent)
         heading_known = np.isfinite(parent.theta)
         scale_known = np.isfinite(parent.log_s)
         s_low, s_high = model.scale_bounds
         # A. heading unknown, scale known: the ring.
         a = ~heading_known & scale_known
-        child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
-        learn = a & ~geo.still & (geo.r > 0)
-        child.heading_from_displacement(learn, geo)
+        if a.any():
+            child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
+            learn = a & ~geo.still & (geo.r > 0)
+            child.heading_from_displacement(learn, geo)
         # C. heading and scale unknown: any length in the scale range, log-uniform scale.
         c = ~heading_known & ~scale_known
-        scale_free(c, geo, child, s_low, s_high)
-        learn = c & ~geo.still & (geo.r > 0)
-        child.heading_from_displacement(learn, geo)
-        child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
-        child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
-        child.p_ts[learn] = 0.0
+        if c.any():
+            scale_free(c, geo, child, s_low, s_high)
+            learn = c & ~geo.still & (geo.r > 0)
+            child.heading_from_displacement(learn, geo)
+            child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
+            child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
+            child.p_ts[learn] = 0.0
         # D. heading known, scale unknown: the direction is tested, the length sets the scale.
         dd = heading_known & ~scale_known
         if dd.any():
@@ -291,60 +306,26 @@ class Identifier:
         if model.orientation:
             orientation(z[:, 2], self._theta_var(), child.theta, child.p_tt, child.loglik)
         logw = parent.logw + self.log_pd + child.loglik - log_bg
-        out = Tracks(
-            slot=parent.slot,
-            row=cand,
-            pos=z[:, :2].copy(),
-            pos_var=np.full(len(cand), pix_var),
-            theta=wrap_angle(child.theta),
-            p_tt=child.p_tt,
-            log_s=child.log_s,
-            p_ts=child.p_ts,
-            p_ss=child.p_ss,
-            logw=logw,
-        )
-        finite = np.isfinite(logw)
-        return out if finite.all() else out.take(np.flatnonzero(finite))
-
-    def _plausible(
-        self, parent: Tracks, z: np.ndarray, interval: Interval, pix_var: float
-    ) -> np.ndarray:
-        """Indices of the candidates worth scoring: a cheap, generous test (every variance at
-        its largest) drops those no weighting could keep within ``PRUNE_NATS`` of the best."""
+        # Children more than PRUNE_NATS below their robot's best child are pruned later anyway
+        # (the best over all hypotheses is at least as high): drop them before they are copied.
+        # Parents come grouped by robot, so the best child of each robot is a reduceat.
         slot = parent.slot
-        d = interval.d[slot]
-        s_high = self.model.scale_bounds[1]
-        var_d, var_dphi = interval.variances(self.model.odometry_noise)
-        push = interval.push[slot] if interval.push is not None else 0.0
-        rho = s_high * np.hypot(*d.T)
-        var = (
-            pix_var
-            + parent.pos_var
-            + s_high**2 * (var_d[slot] + push**2 / 3.0)
-            + (self.model.scale_spread * rho) ** 2
+        starts = group_starts(slot)
+        best = np.maximum.reduceat(logw, starts)
+        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+        keep = np.flatnonzero(logw >= floor)  # False for -inf and nan
+        return Tracks(
+            slot=slot[keep],
+            row=cand[keep],
+            pos=z[keep, :2],
+            pos_var=np.full(len(keep), pix_var),
+            theta=wrap_angle(child.theta[keep]),
+            p_tt=child.p_tt[keep],
+            log_s=child.log_s[keep],
+            p_ts=child.p_ts[keep],
+            p_ss=child.p_ss[keep],
+            logw=logw[keep],
         )
-        limit = 2.0 * (2.0 * PRUNE_NATS + 5.0)  # on a chi-square: -0.5 chi2 is the log-likelihood
-        delta = z[:, :2] - parent.pos
-        known = np.isfinite(parent.theta) & np.isfinite(parent.log_s)
-        chi2 = np.zeros(len(z))
-        # Heading known: distance to the predicted point, the heading's swing added.
-        k = np.flatnonzero(known)
-        if len(k):
-            scale = np.exp(parent.log_s[k])
-            pred = rotate(d[k], parent.theta[k]) * scale[:, None]
-            spread = var[k] + (scale * np.hypot(*d[k].T)) ** 2 * parent.p_tt[k]
-            chi2[k] = ((delta[k] - pred) ** 2).sum(axis=1) / spread
-            if self.model.orientation:
-                turn = wrap_angle(z[k, 2] - parent.theta[k] - interval.dphi[slot[k]])
-                chi2[k] += turn**2 / (parent.p_tt[k] + var_dphi[slot[k]] + self._theta_var())
-        # Heading unknown, scale known: the ring.
-        ring = np.flatnonzero(~np.isfinite(parent.theta) & np.isfinite(parent.log_s))
-        if len(ring):
-            length = np.hypot(*delta[ring].T)
-            chi2[ring] = (length - np.exp(parent.log_s[ring]) * np.hypot(*d[ring].T)) ** 2 / (
-                2.0 * var[ring]
-            )
-        return np.flatnonzero(chi2 <= limit)
 
     def _normalise_and_prune(self) -> None:
         tracks = self.tracks
@@ -359,12 +340,18 @@ class Identifier:
             self.unanchored[lost] = 0.0
             best[lost] = 0.0
         keep = tracks.logw >= best[tracks.slot] - PRUNE_NATS
-        tracks = tracks.take(np.flatnonzero(keep & ~lost[tracks.slot]))
-        # Cap the number of tracks per robot: keep the heaviest.
-        order = np.lexsort((-tracks.logw, tracks.slot))
-        tracks = tracks.take(order)
-        rank = np.arange(len(tracks)) - np.searchsorted(tracks.slot, tracks.slot, side="left")
-        tracks = tracks.take(np.flatnonzero(rank < self.max_tracks))
+        if lost.any():
+            keep &= ~lost[tracks.slot]
+        if not keep.all():
+            tracks = tracks.take(np.flatnonzero(keep))
+        # Sort by robot, heaviest first (one key: every kept weight is within PRUNE_NATS of its
+        # robot's best), and cap the number of tracks per robot: keep the heaviest.
+        below = best[tracks.slot] - tracks.logw
+        order = np.argsort(tracks.slot * (2.0 * PRUNE_NATS + 2.0) + below, kind="stable")
+        rank = rank_in_group(tracks.slot[order])
+        tracks = tracks.take(
+            order if rank.max(initial=0) < self.max_tracks else order[rank < self.max_tracks]
+        )
         # Normalise each robot's weights to sum to one.
         sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
         sums += np.bincount(
@@ -381,11 +368,12 @@ class Identifier:
 
     def _compute_belief(self) -> None:
         n_rows = 0 if self.rows is None else len(self.rows)
-        belief = np.repeat(np.exp(self.uniform)[:, None], n_rows, axis=1)
         tracks = self.tracks
         weights = np.exp(tracks.logw)
         seen = tracks.row >= 0
-        np.add.at(belief, (tracks.slot[seen], tracks.row[seen]), weights[seen])
+        flat = tracks.slot[seen] * n_rows + tracks.row[seen]
+        belief = np.bincount(flat, weights=weights[seen], minlength=self.n * n_rows)
+        belief = belief.reshape(self.n, n_rows) + np.exp(self.uniform)[:, None]
         missing = np.exp(self.unanchored) + np.bincount(
             tracks.slot[~seen], weights=weights[~seen], minlength=self.n
         )

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.model import GATE_SIGMAS, LOG_2PI, SensorModel
+from anonloc_env.identify.model import GATE_SIGMAS, LOG_2PI, SensorModel, push_isotropic
 from anonloc_env.odometry import Interval
 
 
@@ -51,59 +52,98 @@ class Tracks:
         return len(self.slot)
 
 
+def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
+    """``index`` (increasing, unique), or a slice when it selects all ``n`` items (no copies)."""
+    return slice(None) if len(index) == n else index
+
+
+def group_starts(slot: np.ndarray) -> np.ndarray:
+    """Indices where each run of equal values of ``slot`` starts (``slot`` grouped)."""
+    if len(slot) == 0:
+        return np.zeros(0, dtype=np.int64)
+    new = np.empty(len(slot), dtype=bool)
+    new[0] = True
+    np.not_equal(slot[1:], slot[:-1], out=new[1:])
+    return np.flatnonzero(new)
+
+
+def rank_in_group(slot: np.ndarray) -> np.ndarray:
+    """Position of each item within its run of equal ``slot`` values (``slot`` grouped)."""
+    starts = group_starts(slot)
+    sizes = np.diff(np.append(starts, len(slot)))
+    return np.arange(len(slot)) - np.repeat(starts, sizes)
+
+
 FIELDS = ("slot", "row", "pos", "pos_var", "theta", "p_tt", "log_s", "p_ts", "p_ss", "logw")
 
 
-@dataclass
 class Geometry:
-    """Per candidate (parent track, new row): the displacement and its noise."""
+    """Per candidate (parent track, new row): the displacement and its noise.
 
-    d: np.ndarray  # (K, 2) own displacement of the parent's robot (m)
-    rho0: np.ndarray  # |d|
-    dphi: np.ndarray  # own heading change
-    var_dphi: np.ndarray  # its variance
-    delta: np.ndarray  # (K, 2) image displacement from the parent's position to the row
-    r: np.ndarray  # |delta|
-    ang_delta: np.ndarray  # direction of delta
-    ang_d: np.ndarray  # direction of d
-    s: np.ndarray  # scale the parent assumes (its estimate, or the largest possible)
-    push_cov: np.ndarray  # (K, 2, 2) unseen contact pushes (m^2, robot frame)
-    base_var: np.ndarray  # isotropic variance per component without the pushes
-    iso_var: np.ndarray  # with the pushes spread evenly
-    still: np.ndarray  # too little motion to learn the heading from
+    What every case needs is computed at once; the directions and lengths only some cases use
+    are computed when first asked for.
 
-    @classmethod
-    def of(
-        cls, parent: Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
-    ) -> Geometry:
-        slot = parent.slot
-        d = interval.d[slot]
-        rho0 = np.hypot(d[:, 0], d[:, 1])
+    Attributes:
+        d: ``(K, 2)`` own displacement of the parent's robot (m).
+        rho0: ``|d|``.
+        dphi: own heading change (rad); ``var_dphi`` its variance.
+        delta: ``(K, 2)`` image displacement from the parent's position to the row.
+        s: scale the parent assumes (its estimate, or the largest possible).
+        push_var: isotropic variance per component of the unseen contact pushes (image units).
+        base_var: isotropic variance per component without the pushes; ``iso_var`` with them.
+    """
+
+    def __init__(
+        self, parent: Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
+    ) -> None:
+        self.slot = slot = parent.slot
+        self.interval = interval
+        self.d = d = interval.d[slot]
+        self.rho0 = rho0 = np.hypot(d[:, 0], d[:, 1])
         var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
-        delta = z[:, :2] - parent.pos
+        self.dphi = interval.dphi[slot]
+        self.var_dphi = var_dphi_all[slot]
+        self.delta = z[:, :2] - parent.pos
         scale_known = np.isfinite(parent.log_s)
-        s_high = model.scale_bounds[1]
-        s = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
-        push_cov = interval.push_covariance()[slot]
-        base_var = (
+        self.s_high = s_high = model.scale_bounds[1]
+        if scale_known.all():
+            s = np.exp(parent.log_s)
+        else:
+            s = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
+        self.s = s
+        self.base_var = (
             pix_var + parent.pos_var + s**2 * var_d_all[slot] + (model.scale_spread * s * rho0) ** 2
         )
-        iso_var = base_var + s**2 * 0.5 * (push_cov[:, 0, 0] + push_cov[:, 1, 1])
-        return cls(
-            d=d,
-            rho0=rho0,
-            dphi=interval.dphi[slot],
-            var_dphi=var_dphi_all[slot],
-            delta=delta,
-            r=np.hypot(delta[:, 0], delta[:, 1]),
-            ang_delta=np.arctan2(delta[:, 1], delta[:, 0]),
-            ang_d=np.arctan2(d[:, 1], d[:, 0]),
-            s=s,
-            push_cov=push_cov,
-            base_var=base_var,
-            iso_var=iso_var,
-            still=s_high * rho0 < 2.0 * np.sqrt(iso_var),
-        )
+        if interval.push is None:
+            self.pushed = np.zeros(len(slot), dtype=bool)
+            self.iso_var = self.base_var
+        else:
+            self.pushed = interval.push[slot] > 0
+            self.iso_var = self.base_var + s**2 * push_isotropic(interval)[slot]
+
+    @cached_property
+    def r(self) -> np.ndarray:
+        """``|delta|``."""
+        return np.hypot(self.delta[:, 0], self.delta[:, 1])
+
+    @cached_property
+    def ang_delta(self) -> np.ndarray:
+        """Direction of ``delta`` (rad)."""
+        return np.arctan2(self.delta[:, 1], self.delta[:, 0])
+
+    @cached_property
+    def ang_d(self) -> np.ndarray:
+        """Direction of ``d`` (rad)."""
+        return np.arctan2(self.d[:, 1], self.d[:, 0])
+
+    @cached_property
+    def still(self) -> np.ndarray:
+        """Too little motion to learn the heading from."""
+        return self.s_high * self.rho0 < 2.0 * np.sqrt(self.iso_var)
+
+    def push_cov(self, which: np.ndarray) -> np.ndarray:
+        """``(k, 2, 2)`` unseen contact pushes (m^2, robot frame) of candidates ``which``."""
+        return self.interval.push_covariance()[self.slot[which]]
 
     def standing_loglik(self, which: np.ndarray) -> np.ndarray:
         """Log density of the displacement of a robot that did not move, for ``which``."""
@@ -200,10 +240,18 @@ def kalman(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> Non
     """Heading known, scale known or estimated: an extended Kalman filter on ``(theta, log s)``
     predicting ``q = p + s R(theta) d``."""
     k = np.flatnonzero(mask)
+    sel = everything(k, len(mask))
+    # Scale known exactly and no contact: the filter is on theta alone (see _kalman_heading).
+    simple = (parent.p_ss[sel] == 0.0) & (parent.p_ts[sel] == 0.0) & ~geo.pushed[sel]
+    if simple.all():
+        _kalman_heading(k, geo, parent, child)
+        return
+    _kalman_heading(k[simple], geo, parent, child)
+    k = k[~simple]
     th, ls = parent.theta[k], parent.log_s[k]
     ptt, pts, pss = parent.p_tt[k], parent.p_ts[k], parent.p_ss[k]
     # Unseen pushes (robot frame, scaled to the image) turned by the heading: R C R^T.
-    push = geo.push_cov[k] * (geo.s[k] ** 2)[:, None, None]
+    push = geo.push_cov(k) * (geo.s[k] ** 2)[:, None, None]
     c, sn = np.cos(th), np.sin(th)
     cxx, cxy, cyy = push[:, 0, 0], push[:, 0, 1], push[:, 1, 1]
     q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
@@ -243,11 +291,46 @@ def kalman(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> Non
     child.p_ss[k] = np.maximum(pss - np.einsum("ij,ij->i", hp_s, a_s), 0.0)
 
 
+def _kalman_heading(k: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:
+    """:func:`kalman` with the scale known exactly and no push: with ``h = s R(theta) d``
+    turned a quarter, ``S = b I + p_tt h h^T``, so with ``a = b + p_tt |h|^2`` (Sherman and
+    Morrison) ``det S = b a``, ``e^T S^-1 e = (|e|^2 - p_tt (h.e)^2 / a) / b``, the gain is
+    ``p_tt h^T / a`` and the new variance ``p_tt b / a``."""
+    if len(k) == 0:
+        return
+    k = everything(k, len(parent))  # type: ignore[assignment]  # a slice selects alike
+    th = parent.theta[k]
+    ptt = parent.p_tt[k]
+    s = geo.s[k]
+    c, sn = np.cos(th), np.sin(th)
+    dx, dy = geo.d[k, 0], geo.d[k, 1]
+    px = s * (c * dx - sn * dy)  # predicted displacement s R(theta) d
+    py = s * (sn * dx + c * dy)
+    ex = geo.delta[k, 0] - px
+    ey = geo.delta[k, 1] - py
+    h_e = px * ey - py * ex  # h . e with h = (-py, px)
+    b = geo.base_var[k]
+    a = b + ptt * (px * px + py * py)
+    maha = (ex * ex + ey * ey - ptt * h_e * h_e / a) / b
+    child.loglik[k] = -LOG_2PI - 0.5 * np.log(b * a) - 0.5 * maha
+    child.theta[k] = th + ptt * h_e / a + geo.dphi[k]
+    child.p_tt[k] = np.maximum(ptt * b / a, 1e-14) + geo.var_dphi[k]
+    # log s, p_ts (0) and p_ss (0) stay as the parent's (Child.start copied them).
+
+
 def orientation(
     detected: np.ndarray, var_z: float, theta: np.ndarray, p_tt: np.ndarray, loglik: np.ndarray
 ) -> None:
     """A detected heading as one more measurement of ``theta`` (variance ``var_z``)."""
     known = np.isfinite(theta)
+    if known.all():
+        err = wrap_angle(detected - theta)
+        var = p_tt + var_z
+        loglik += -0.5 * (math.log(2 * math.pi) + np.log(var) + err**2 / var)
+        gain = p_tt / var
+        theta += gain * err
+        p_tt *= 1 - gain
+        return
     err = wrap_angle(detected[known] - theta[known])
     var = p_tt[known] + var_z
     loglik[known] += -0.5 * (math.log(2 * math.pi) + np.log(var) + err**2 / var)
