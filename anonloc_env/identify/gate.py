@@ -50,6 +50,10 @@ class Gate:
     turn: np.ndarray
     turn_var: np.ndarray
 
+    def __post_init__(self) -> None:
+        self.rings = bool(np.any(self.ring > 0.0))
+        self.turns = bool(np.any(np.isfinite(self.turn_var)))
+
     @classmethod
     def of(
         cls,
@@ -89,9 +93,14 @@ class Gate:
         """``(K,)`` True where row ``z[k]`` may extend hypothesis ``parent[k]``."""
         dx = z[:, 0] - self.centre[parent, 0]
         dy = z[:, 1] - self.centre[parent, 1]
-        miss = np.hypot(dx, dy) - self.ring[parent]
-        chi2 = miss * miss / self.spread[parent]
-        chi2 += wrap_angle(z[:, 2] - self.turn[parent]) ** 2 / self.turn_var[parent]
+        if self.rings:
+            miss = np.hypot(dx, dy) - self.ring[parent]
+            chi2 = miss * miss
+        else:
+            chi2 = dx * dx + dy * dy
+        chi2 /= self.spread[parent]
+        if self.turns:
+            chi2 += wrap_angle(z[:, 2] - self.turn[parent]) ** 2 / self.turn_var[parent]
         return chi2 <= GATE_CHI2
 
 
