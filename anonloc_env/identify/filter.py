@@ -141,7 +141,12 @@ class Identifier:
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
-            a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(radius, 1e-9))
+            # Carried motion and grown position noise widen the search.
+            carried = float(np.hypot(*tracks.carry[missed].T).max())
+            wider = (
+                radius + s_high * carried + GATE_SIGMAS * math.sqrt(tracks.pos_var[missed].max())
+            )
+            a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
             keep = gate.passes(missed[a], rows[b])
             parts.append(
                 self._children(
@@ -161,9 +166,15 @@ class Identifier:
                     live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
                 )
             )
-            # ... or the robot was missed then: its position is unknown again.
-            lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
-            unanchored[live] = np.logaddexp(unanchored[live], lost)
+        if len(live):
+            # ... or the robot was missed now: still at one of the previous rows, its own motion
+            # carried (as many rows as a robot's tracks continued through a miss), or its
+            # position is unknown again.
+            if len(prev) <= MISSED_PER_ROBOT:
+                parts.append(self._uniform_missed(live, prev, interval, pix_var))
+            else:
+                lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
+                unanchored[live] = np.logaddexp(unanchored[live], lost)
         return [p for p in parts if len(p)], unanchored
 
     def _from_uniform(
@@ -224,31 +235,77 @@ class Identifier:
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
             logw=self.uniform[slot],
+            carry=np.zeros((n_par, 2)),
+            turn=np.zeros(n_par),
         )
         return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
+
+    def _uniform_missed(
+        self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float
+    ) -> Tracks:
+        """The uniform weight of robots ``live`` over the rows of ``prev``, missed in the new
+        picture: a track anchored at every row, the robot's own motion carried."""
+        model = self.model
+        slot = np.repeat(live, len(prev))
+        p_row = np.tile(np.arange(len(prev)), len(live))
+        n_par = len(slot)
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        s = model.scale if model.scale is not None else model.scale_bounds[1]
+        if model.orientation:
+            theta = prev[p_row, 2].astype(np.float64)
+            p_tt = np.full(n_par, self._theta_var()) + var_dphi[slot]
+        else:
+            theta = np.full(n_par, np.nan)
+            p_tt = np.full(n_par, np.inf)
+        known = model.scale is not None
+        pos = prev[p_row, :2].astype(np.float64)
+        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval))[slot]
+        carry, turn = interval.d[slot], interval.dphi[slot].astype(np.float64)
+        if model.orientation and known:  # heading and scale known: predicted, as in _missed
+            pos += rotate(carry, theta) * s
+            pos_var += s**2 * (carry**2).sum(axis=1) * self._theta_var()
+            theta = wrap_angle(theta + turn)
+            carry, turn = np.zeros_like(carry), np.zeros_like(turn)
+        return Tracks(
+            slot=slot,
+            row=np.full(n_par, -1),
+            pos=pos,
+            pos_var=pos_var,
+            theta=theta,
+            p_tt=p_tt,
+            log_s=np.full(n_par, math.log(model.scale) if known else np.nan),
+            p_ts=np.zeros(n_par),
+            p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
+            logw=self.uniform[slot] + self.log_miss,
+            carry=carry,
+            turn=turn,
+        )
 
     def _missed(
         self, tracks: Tracks, interval: Interval, pix_var: float
     ) -> tuple[Tracks, np.ndarray, np.ndarray]:
-        """Continue every track through a miss: predicted position if its heading is known,
-        otherwise its weight returns to "position unknown"."""
+        """Continue a robot's heaviest tracks through a miss: to the predicted position if the
+        heading and scale are known, otherwise still anchored at their newest detection with the
+        robot's own motion carried (the next row is tested on the whole displacement). The
+        weight of the other tracks returns to "position unknown"."""
         logw = tracks.logw + self.log_miss
         # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
-        rank = rank_in_group(tracks.slot)
-        knows = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s) & (rank < MISSED_PER_ROBOT)
-        k = np.flatnonzero(knows)
+        kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
+        predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
+        var_d, var_dphi = interval.variances(self.model.odometry_noise)
+        push_var = push_isotropic(interval)
+        k = np.flatnonzero(kept & predicts)
         slot = tracks.slot[k]
         d = interval.d[slot]
         s = np.exp(tracks.log_s[k])
-        var_d, var_dphi = interval.variances(self.model.odometry_noise)
         rho = np.hypot(*d.T)
         moved = rotate(d, tracks.theta[k]) * s[:, None]
-        continued = Tracks(
+        predicted = Tracks(
             slot=slot,
             row=np.full(len(k), -1),
             pos=tracks.pos[k] + moved,
             pos_var=tracks.pos_var[k]
-            + s**2 * (var_d[slot] + push_isotropic(interval)[slot])
+            + s**2 * (var_d[slot] + push_var[slot])
             + (s * rho) ** 2 * tracks.p_tt[k],
             theta=wrap_angle(tracks.theta[k] + interval.dphi[slot]),
             p_tt=tracks.p_tt[k] + var_dphi[slot],
@@ -256,9 +313,22 @@ class Identifier:
             p_ts=tracks.p_ts[k],
             p_ss=tracks.p_ss[k],
             logw=logw[k],
+            carry=np.zeros((len(k), 2)),
+            turn=np.zeros(len(k)),
         )
-        lost = np.flatnonzero(~knows)
-        return continued, tracks.slot[lost], logw[lost]
+        c = np.flatnonzero(kept & ~predicts)
+        carried = tracks.take(c)
+        carried.logw = logw[c]
+        carried.row = np.full(len(c), -1)
+        slot = carried.slot
+        scale_known = np.isfinite(carried.log_s)
+        s_high = self.model.scale_bounds[1]
+        s = np.where(scale_known, np.exp(np.where(scale_known, carried.log_s, 0.0)), s_high)
+        carried.pos_var = carried.pos_var + s**2 * (var_d[slot] + push_var[slot])
+        carried.p_tt = carried.p_tt + var_dphi[slot]
+        carried.carry, carried.turn = carried.own_motion(interval)
+        lost = np.flatnonzero(~kept)
+        return Tracks.concat([predicted, carried]), tracks.slot[lost], logw[lost]
 
     def _children(
         self,
@@ -325,6 +395,8 @@ class Identifier:
             p_ts=child.p_ts[keep],
             p_ss=child.p_ss[keep],
             logw=logw[keep],
+            carry=np.zeros((len(keep), 2)),
+            turn=np.zeros(len(keep)),
         )
 
     def _normalise_and_prune(self) -> None:

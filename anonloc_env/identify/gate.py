@@ -66,7 +66,7 @@ class Gate:
         """The gate of every explicit track: a point where the heading and scale are known,
         a ring where only the scale is, no test otherwise."""
         slot = tracks.slot
-        d = interval.d[slot]
+        d, dphi = tracks.own_motion(interval)
         rho0 = np.hypot(d[:, 0], d[:, 1])
         var = _worst_variance(slot, interval, model, pix_var) + tracks.pos_var
         _, var_dphi = interval.variances(model.odometry_noise)
@@ -87,7 +87,7 @@ class Gate:
         turn_var = np.full(len(tracks), np.inf)
         if model.orientation:
             turn_var[known] = (tracks.p_tt + var_dphi[slot] + theta_var)[known]
-        return cls(centre, radius, spread, theta + interval.dphi[slot], turn_var)
+        return cls(centre, radius, spread, theta + dphi, turn_var)
 
     def passes(self, parent: np.ndarray, z: np.ndarray) -> np.ndarray:
         """``(K,)`` True where row ``z[k]`` may extend hypothesis ``parent[k]``."""

@@ -33,13 +33,39 @@ class Tracks:
     p_ts: np.ndarray  # covariance of theta and log s
     p_ss: np.ndarray  # variance of log s
     logw: np.ndarray  # log weight
+    # Own motion since the newest detection of a track missed since, before its position could
+    # be predicted (heading or scale unknown): (H, 2) displacement in the robot's frame at that
+    # detection (m), and the heading change (rad); zero for the others.
+    carry: np.ndarray
+    turn: np.ndarray
 
     @classmethod
     def empty(cls) -> Tracks:
         z = np.zeros(0)
         return cls(
-            np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), z, z, z, z, z, z, z
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+            np.zeros((0, 2)),
+            z,
+            z,
+            z,
+            z,
+            z,
+            z,
+            z,
+            np.zeros((0, 2)),
+            z,
         )
+
+    def own_motion(self, interval: Interval) -> tuple[np.ndarray, np.ndarray]:
+        """``((H, 2), (H,))``: each track's own displacement (m, robot frame at its newest
+        detection or prediction) and heading change up to the end of ``interval``."""
+        d = interval.d[self.slot]
+        dphi = interval.dphi[self.slot]
+        if self.turn.any() or self.carry.any():
+            d = self.carry + rotate(d, self.turn)
+            dphi = dphi + self.turn
+        return d, dphi
 
     def take(self, index: np.ndarray) -> Tracks:
         return Tracks(*(getattr(self, f)[index] for f in FIELDS))
@@ -74,7 +100,20 @@ def rank_in_group(slot: np.ndarray) -> np.ndarray:
     return np.arange(len(slot)) - np.repeat(starts, sizes)
 
 
-FIELDS = ("slot", "row", "pos", "pos_var", "theta", "p_tt", "log_s", "p_ts", "p_ss", "logw")
+FIELDS = (
+    "slot",
+    "row",
+    "pos",
+    "pos_var",
+    "theta",
+    "p_tt",
+    "log_s",
+    "p_ts",
+    "p_ss",
+    "logw",
+    "carry",
+    "turn",
+)
 
 
 class Geometry:
@@ -98,10 +137,9 @@ class Geometry:
     ) -> None:
         self.slot = slot = parent.slot
         self.interval = interval
-        self.d = d = interval.d[slot]
+        self.d, self.dphi = d, _ = parent.own_motion(interval)
         self.rho0 = rho0 = np.hypot(d[:, 0], d[:, 1])
         var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
-        self.dphi = interval.dphi[slot]
         self.var_dphi = var_dphi_all[slot]
         self.delta = z[:, :2] - parent.pos
         scale_known = np.isfinite(parent.log_s)
