@@ -18,7 +18,8 @@ Scenarios:
 * ``headings``: N = 100, the default camera (detected headings), no clutter: for calibration.
 
 Usage: ``python benchmarks/identify_quality.py [--scenarios dense,clutter] [--episodes K]
-[--json out.json]``
+[--json out.json]``; ``python benchmarks/plot_reliability.py out.json docs/assets/x.png`` draws
+the reliability diagram from the JSON.
 """
 
 from __future__ import annotations
@@ -228,8 +229,9 @@ def _rate(successes: int, trials: int) -> str:
     return f"{100 * successes / trials:.1f} % [{100 * low:.1f}, {100 * high:.1f}]"
 
 
-def reliability(scores: Scores) -> list[tuple[float, float, int, float]]:
-    """Per belief bin: (low edge, high edge, count, observed accuracy of the top row)."""
+def reliability(scores: Scores) -> list[tuple[float, float, int, float, float]]:
+    """Per belief bin: (low edge, high edge, count, observed accuracy of the top row, mean top
+    belief)."""
     top = np.asarray(scores.top)
     ok = np.asarray(scores.top_right, dtype=bool)
     out = []
@@ -237,7 +239,8 @@ def reliability(scores: Scores) -> list[tuple[float, float, int, float]]:
         inside = (top >= low) & (top < high)
         count = int(inside.sum())
         accuracy = float(ok[inside].mean()) if count else math.nan
-        out.append((float(low), float(high), count, accuracy))
+        mean = float(top[inside].mean()) if count else math.nan
+        out.append((float(low), float(high), count, accuracy, mean))
     return out
 
 
@@ -281,10 +284,13 @@ def print_result(result: dict[str, Any]) -> None:
     if result["motion3_first"] is not None:
         right, total = result["motion3_first"]
         print(f"motion3 right at its first decision: {_rate(right, total)} of {total}")
-    print("\n| top belief | robot-pictures | top row right |")
-    print("|---|---:|---:|")
-    for low, high, count, acc in result["reliability"]:
-        print(f"| [{low:.3f}, {min(high, 1.0):.3f}) | {count} | {100 * acc:.2f} % |")
+    print("\n| top belief | robot-pictures | mean top belief | top row right |")
+    print("|---|---:|---:|---:|")
+    for low, high, count, acc, mean in result["reliability"]:
+        print(
+            f"| [{low:.3f}, {min(high, 1.0):.3f}) | {count} | {100 * mean:.2f} % | "
+            f"{100 * acc:.2f} % |"
+        )
     print(
         f"\nidentifier time {result['identifier_s']:.1f} s, wall {result['wall_s']:.1f} s "
         "(shared machine)"

@@ -45,12 +45,14 @@ def simulate(
     *,
     true_scale: float | None = None,
     leg: float = 0.4,
+    margin: float = 0.15,
 ) -> tuple[list[np.ndarray], list[Interval], list[np.ndarray]]:
-    """Rows, intervals and true rows drawn from the model (``true_scale``: the camera's)."""
+    """Rows, intervals and true rows drawn from the model (``true_scale``: the camera's; the
+    robots start uniform in the image less ``margin`` of its side on every edge)."""
     rng = np.random.default_rng(seed)
     scale = model.scale if true_scale is None else true_scale
     assert scale is not None
-    pos = rng.uniform(0.15 * SIDE, 0.85 * SIDE, (n, 2))
+    pos = rng.uniform(margin * SIDE, (1.0 - margin) * SIDE, (n, 2))
     heading = rng.uniform(-math.pi, math.pi, n)
     rows_out, intervals, truths = [], [], []
     for k in range(pictures):

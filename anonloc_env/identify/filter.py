@@ -273,7 +273,7 @@ class Identifier:
             pos_var=pos_var,
             theta=theta,
             p_tt=p_tt,
-            log_s=np.full(n_par, math.log(model.scale) if known else np.nan),
+            log_s=np.full(n_par, math.log(s) if known else np.nan),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
             logw=self.uniform[slot] + self.log_miss,

@@ -81,7 +81,7 @@ class Gate:
         centre[known, 0] += (s * (c * d[:, 0] - sn * d[:, 1]))[known]
         centre[known, 1] += (s * (sn * d[:, 0] + c * d[:, 1]))[known]
         spread = np.full(len(tracks), np.inf)
-        spread[known] = (var + (s * rho0) ** 2 * tracks.p_tt)[known]
+        spread[known] = var[known] + (s * rho0)[known] ** 2 * tracks.p_tt[known]
         spread[ring] = 2.0 * var[ring]
         radius = np.where(ring, s * rho0, 0.0)
         turn_var = np.full(len(tracks), np.inf)
