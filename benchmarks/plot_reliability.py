@@ -3,7 +3,8 @@
 For each scenario and each bin of the top belief, the share of robot-pictures whose top row was
 the truth (with its 95 % Wilson interval) against the mean top belief in the bin; a calibrated
 identifier lies on the diagonal. The x axis is ``-log10(1 - belief)`` so that the bins near 1,
-where decisions are taken, are spread out. Needs matplotlib (``pip install anonloc[cli]``).
+where decisions are taken, are spread out. Bins with fewer than :data:`MIN_COUNT`
+robot-pictures are left out. Needs matplotlib (``pip install anonloc[cli]``).
 
 Usage: ``python benchmarks/plot_reliability.py results.json out.png``
 """
@@ -19,6 +20,8 @@ import numpy as np
 
 from baselines.paper import wilson
 
+#: Bins with fewer robot-pictures are left out (their interval spans the whole axis).
+MIN_COUNT = 30
 #: Beliefs are drawn at most this close to 1 (``-log10(1 - b)`` <= 4).
 CLOSEST = 1e-4
 
@@ -42,7 +45,9 @@ def plot(results: list[dict[str, Any]], out: str) -> None:
     ticks = np.array([0.0, 0.5, 0.9, 0.99, 0.999, 0.9999])
     axis.plot(_x(ticks), _x(ticks), color="0.6", lw=1, ls="--", label="calibrated")
     for i, result in enumerate(results):
-        rows = [r for r in result["reliability"] if r[2] > 0]
+        rows = [r for r in result["reliability"] if r[2] >= MIN_COUNT]
+        if not rows:
+            continue
         count = np.array([r[2] for r in rows])
         accuracy = np.array([r[3] for r in rows])
         mean = np.array([r[4] for r in rows])

@@ -120,7 +120,7 @@ def uniform_gate(
     ``pair[k]``: from row ``i_pair`` of the previous picture ``prev`` to row ``j_pair`` of
     ``rows``.
 
-    The same test as :meth:`Gate.passes` for a hypothesis just anchored at the pair's first row
+    The same test as ``Gate.passes`` for a hypothesis just anchored at the pair's first row
     (position variance ``pix_var``, the detected heading if any, the known scale if any), computed
     in the robot's frame, ``|q - p - s R(theta_p) d| = |R(-theta_p) (q - p) - s d|``, so that
     the rotation is done once per pair.

@@ -98,7 +98,7 @@ def exact_beliefs(
     Returns:
         For each picture k: ``(belief, missing)`` with ``belief`` ``(R, n_k)``, the probability
         that row j is robot i, and ``missing`` ``(R,)`` that robot i is in none of the rows
-        (the same quantities as :meth:`Identifier.belief` and :meth:`Identifier.missing`).
+        (the same quantities as ``Identifier.belief()`` and ``Identifier.missing()``).
 
     Raises:
         ValueError: noisy odometry, pushes, mismatched lengths, or too many tracks.

@@ -1,7 +1,7 @@
 """Tracks: the explicit hypotheses of all robots, and how one is extended by a candidate row.
 
 A track is which row of each picture was the robot (or that it was missed), with a Gaussian
-estimate of its image heading and log scale. :func:`extend` scores a batch of (track, row)
+estimate of its image heading and log scale. The filter scores a batch of (track, row)
 candidates under the model of :mod:`anonloc_env.identify.model`: the ring density while the
 heading is unknown, an extended Kalman filter on ``(theta, log s)`` once it is known.
 """
