@@ -44,6 +44,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -155,6 +156,53 @@ def anonloc_blocks(n: int) -> dict[str, Block]:
         return spent
 
     return {"anonloc": env_block, "limit": limit_block}
+
+
+REWARD_SIZES = (100, 1000)
+REWARD_STEPS = 300
+
+
+def reward_run(n: int, reward_fn: Any, seed: int = SEED) -> tuple[float, float]:
+    """Seconds of ``env.step`` over :data:`REWARD_STEPS` steps from reset (the first interval
+    included), and the worst single step, under ``reward_fn``, on seeded random commands."""
+    side = arena_side(n)
+    env = anonloc_env.parallel_env(
+        n_robots=n, arena_size=(side, side), max_cycles=10**9, reward_fn=reward_fn
+    )
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    agents, total, worst = env.agents, 0.0, 0.0
+    for _ in range(REWARD_STEPS):
+        actions = dict(zip(agents, rng.uniform(-1.0, 1.0, (n, 2)).astype(np.float32), strict=True))
+        start = clock()
+        env.step(actions)
+        spent = clock() - start
+        total += spent
+        worst = max(worst, spent)
+    return total, worst
+
+
+def reward_table(reps: int) -> str:
+    """The default reward (information gain) against ``EnergyCost`` on the same runs."""
+    lines = [
+        "| N | reward | agent-steps/s | worst step (ms) | default / EnergyCost speed |",
+        "|---:|---|---:|---:|---:|",
+    ]
+    for n in REWARD_SIZES:
+        runs: dict[str, list[tuple[float, float]]] = {"default": [], "EnergyCost": []}
+        for _ in range(reps):  # alternated, so a busy neighbour slows both alike
+            runs["default"].append(reward_run(n, None))
+            runs["EnergyCost"].append(reward_run(n, anonloc_env.EnergyCost()))
+        ratio = statistics.median(
+            e[0] / d[0] for d, e in zip(runs["default"], runs["EnergyCost"], strict=True)
+        )
+        for name, samples in runs.items():
+            rate = n * REWARD_STEPS / statistics.median(t for t, _ in samples)
+            worst = 1e3 * max(w for _, w in samples)
+            shown = f"{ratio:.2f}" if name == "default" else ""
+            lines.append(f"| {n} | {name} | {fmt(rate)} | {worst:.1f} | {shown} |")
+        print(f"  rewards N = {n} done", flush=True)
+    return "\n".join(lines)
 
 
 # -- peers ----------------------------------------------------------------------------------------
@@ -311,7 +359,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="shorter blocks, fewer repetitions")
     parser.add_argument("--cpu", type=int, default=0, help="core to pin to (default 0)")
     parser.add_argument("--no-peers", action="store_true", help="skip mpe2 and vmas")
+    parser.add_argument(
+        "--rewards-only",
+        action="store_true",
+        help="only the default reward against EnergyCost (300 steps from reset)",
+    )
     args = parser.parse_args(argv)
+    if args.rewards_only:
+        print(f"machine: {machine()}; {pin(args.cpu)}", flush=True)
+        print(reward_table(1 if args.quick else 3))
+        return
     block_s, reps, peer_reps = (0.02, 10, 3) if args.quick else (0.05, 40, 7)
     print(f"machine: {machine()}; {pin(args.cpu)}", flush=True)
 
@@ -350,6 +407,8 @@ def main(argv: list[str] | None = None) -> None:
 
     print()
     print(table(rows, ratios))
+    print()
+    print(reward_table(1 if args.quick else 3))
     print()
     print("Targets:")
     print("\n".join(targets(rows, ratios)))

@@ -1,0 +1,473 @@
+"""The identifier: a multi-hypothesis "which row is me" filter for R robots at once, built on the
+model of :mod:`anonloc_env.identify.model` and the tracks of :mod:`anonloc_env.identify.tracks`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env.camera import Picture
+from anonloc_env.geometry import rotate, wrap_angle
+from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
+from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
+from anonloc_env.identify.tracks import (
+    Child,
+    Geometry,
+    Tracks,
+    direction_only,
+    group_starts,
+    kalman,
+    orientation,
+    rank_in_group,
+    scale_free,
+)
+from anonloc_env.neighbours import expand_ranges, pairs_within
+from anonloc_env.odometry import Interval
+
+#: Only a robot's heaviest tracks are continued through a miss; the rest of their weight
+#: returns to "position unknown" (kept, never lost).
+MISSED_PER_ROBOT = 32
+
+
+class Identifier:
+    """Multi-hypothesis "which row is me" filter for R robots at once.
+
+    Call :meth:`update` with every picture (and each robot's motion since the previous one), then
+    read :meth:`belief`. The robots share nothing but the pictures: robot i's belief depends only
+    on the pictures and ``interval`` row i.
+
+    Args:
+        model: the sensor model (see :class:`SensorModel`).
+        n_robots: R, the number of robots identified at once.
+        max_tracks: most hypotheses kept per robot (the best ones).
+    """
+
+    def __init__(self, model: SensorModel, n_robots: int, max_tracks: int = 1024) -> None:
+        self.model = model
+        self.n = n_robots
+        self.max_tracks = max_tracks
+        # A robot is never certain to be in a picture (it may leave the view): a floor of 1e-6
+        # keeps its identity recoverable without costing more than one miss per track.
+        self.log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
+        self.log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything: no picture seen."""
+        self.tracks = Tracks.empty()
+        self.uniform = np.full(self.n, -np.inf)  # log weight of each row of the newest picture
+        self.unanchored = np.zeros(self.n)  # log weight of "position unknown"
+        self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
+        self._belief: np.ndarray | None = None
+        self._missing = np.ones(self.n)
+        self.pictures = 0
+
+    # -- noise floors: float32 observations limit what "noise free" can mean ---------------------
+    def _pixel_var(self, rows: np.ndarray) -> float:
+        extent = float(np.abs(rows[:, :2]).max()) if len(rows) else 1.0
+        floor = 1e-4 + 1e-6 * extent
+        return self.model.pixel_noise**2 + floor**2
+
+    def _theta_var(self) -> float:
+        return self.model.orientation_noise**2 + 1e-10
+
+    def update(self, rows: np.ndarray, interval: Interval | None = None) -> None:
+        """Take in a picture.
+
+        Args:
+            rows: ``(n, 3)`` detections ``(u, v, theta)`` of the new picture (no padding).
+            interval: each robot's motion since the previous picture; ignored for the first one.
+        """
+        rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+        n_rows = len(rows)
+        log_bg = math.log(max(n_rows - self.model.p_detect, 0.5) / self.model.image_area)
+        if self.rows is None or interval is None:
+            # A first picture (or one with no known motion before it): start from "unknown".
+            parts: list[Tracks] = []
+            before = np.zeros(self.n)
+            unanchored = before + self.log_miss
+        else:
+            parts, unanchored = self._extend(rows, interval, log_bg)
+            before = self.unanchored
+        # "Position unknown" before the picture: now seen at any row alike, or still unknown.
+        fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
+        self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
+        self.unanchored = unanchored
+        self.tracks = Tracks.concat(parts) if parts else Tracks.empty()
+        self.rows = rows
+        self.pictures += 1
+        self._normalise_and_prune()
+        self._compute_belief()
+
+    # -- one interval ----------------------------------------------------------------------------
+    def _extend(
+        self, rows: np.ndarray, interval: Interval, log_bg: float
+    ) -> tuple[list[Tracks], np.ndarray]:
+        model = self.model
+        assert self.rows is not None
+        prev = self.rows
+        pix_var = self._pixel_var(np.concatenate([prev, rows]))
+        var_d, _ = interval.variances(model.odometry_noise)
+        s_high = model.scale_bounds[1]
+        spread = model.scale_spread
+        # Reach of each robot in the image: its path at the largest scale plus the noise.
+        sigma_max = np.sqrt(
+            2 * pix_var + s_high**2 * var_d + (spread * s_high * interval.path) ** 2
+        )
+        push = interval.push if interval.push is not None else 0.0
+        travel = interval.path * (1 + GATE_SIGMAS * model.odometry_noise) + push
+        reach = s_high * travel + GATE_SIGMAS * sigma_max
+        radius = float(reach.max()) if len(reach) else 0.0
+        i_pair, j_pair, dist = pairs_within(prev[:, :2], rows[:, :2], max(radius, 1e-9))
+        parts: list[Tracks] = []
+        unanchored = self.unanchored + self.log_miss  # unknown before, missed again
+
+        # 1. Explicit tracks anchored at a row of the previous picture: candidate rows by pairs.
+        tracks = self.tracks
+        gate = Gate.of(tracks, interval, model, pix_var, self._theta_var())
+        anchored = np.flatnonzero(tracks.row >= 0)
+        if len(anchored):
+            starts = np.searchsorted(i_pair, tracks.row[anchored], side="left")
+            ends = np.searchsorted(i_pair, tracks.row[anchored], side="right")
+            parent = np.repeat(anchored, ends - starts)
+            cand = j_pair[expand_ranges(starts, ends - starts)]
+            keep = gate.passes(parent, rows[cand])
+            parts.append(
+                self._children(
+                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
+                )
+            )
+        # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
+        missed = np.flatnonzero(tracks.row < 0)
+        if len(missed):
+            # Carried motion and grown position noise widen the search.
+            carried = float(np.hypot(*tracks.carry[missed].T).max())
+            wider = (
+                radius + s_high * carried + GATE_SIGMAS * math.sqrt(tracks.pos_var[missed].max())
+            )
+            a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
+            keep = gate.passes(missed[a], rows[b])
+            parts.append(
+                self._children(
+                    tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg
+                )
+            )
+        # 3. Every explicit track may be missed in the new picture.
+        if len(tracks):
+            continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var)
+            parts.append(continued)
+            np.logaddexp.at(unanchored, lost_slot, lost_logw)
+        # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair.
+        live = np.flatnonzero(np.isfinite(self.uniform))
+        if len(live) and len(i_pair):
+            parts.append(
+                self._from_uniform(
+                    live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
+                )
+            )
+        if len(live):
+            # ... or the robot was missed now: still at one of the previous rows, its own motion
+            # carried (as many rows as a robot's tracks continued through a miss), or its
+            # position is unknown again.
+            if len(prev) <= MISSED_PER_ROBOT:
+                parts.append(self._uniform_missed(live, prev, interval, pix_var))
+            else:
+                lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
+                unanchored[live] = np.logaddexp(unanchored[live], lost)
+        return [p for p in parts if len(p)], unanchored
+
+    def _from_uniform(
+        self,
+        live: np.ndarray,
+        prev: np.ndarray,
+        rows: np.ndarray,
+        i_pair: np.ndarray,
+        j_pair: np.ndarray,
+        dist: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        var_d: np.ndarray,
+        log_bg: float,
+    ) -> Tracks:
+        """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion."""
+        model = self.model
+        s_low, s_high = model.scale_bounds
+        rho0 = np.hypot(*interval.d[live].T)
+        push_iso = push_isotropic(interval)[live]
+        sigma = np.sqrt(
+            s_high**2 * push_iso
+            + 2 * pix_var
+            + s_high**2 * var_d[live]
+            + (model.scale_spread * s_high * rho0) ** 2
+        )
+        lo = s_low * rho0 - GATE_SIGMAS * sigma
+        hi = s_high * rho0 + GATE_SIGMAS * sigma
+        by_length = np.argsort(dist, kind="stable")
+        sorted_len = dist[by_length]
+        start = np.searchsorted(sorted_len, lo, side="left")
+        stop = np.searchsorted(sorted_len, hi, side="right")
+        counts = stop - start
+        pick = by_length[expand_ranges(start, counts)]
+        slot = np.repeat(live, counts)
+        keep = uniform_gate(
+            slot, pick, i_pair, j_pair, prev, rows, interval, model, pix_var, self._theta_var()
+        )
+        pick, slot = pick[keep], slot[keep]
+        p_row = i_pair[pick]
+        n_par = len(pick)
+        if model.orientation:
+            theta = prev[p_row, 2]
+            p_tt = np.full(n_par, self._theta_var())
+        else:
+            theta = np.full(n_par, np.nan)
+            p_tt = np.full(n_par, np.inf)
+        log_scale = math.log(model.scale) if model.scale is not None else np.nan
+        known = model.scale is not None
+        parent = Tracks(
+            slot=slot,
+            row=p_row,
+            pos=prev[p_row, :2],
+            pos_var=np.full(n_par, pix_var),
+            theta=theta,
+            p_tt=p_tt,
+            log_s=np.full(n_par, log_scale),
+            p_ts=np.zeros(n_par),
+            p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
+            logw=self.uniform[slot],
+            carry=np.zeros((n_par, 2)),
+            turn=np.zeros(n_par),
+        )
+        return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
+
+    def _uniform_missed(
+        self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float
+    ) -> Tracks:
+        """The uniform weight of robots ``live`` over the rows of ``prev``, missed in the new
+        picture: a track anchored at every row, the robot's own motion carried."""
+        model = self.model
+        slot = np.repeat(live, len(prev))
+        p_row = np.tile(np.arange(len(prev)), len(live))
+        n_par = len(slot)
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        s = model.scale if model.scale is not None else model.scale_bounds[1]
+        if model.orientation:
+            theta = prev[p_row, 2].astype(np.float64)
+            p_tt = np.full(n_par, self._theta_var()) + var_dphi[slot]
+        else:
+            theta = np.full(n_par, np.nan)
+            p_tt = np.full(n_par, np.inf)
+        known = model.scale is not None
+        pos = prev[p_row, :2].astype(np.float64)
+        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval))[slot]
+        carry, turn = interval.d[slot], interval.dphi[slot].astype(np.float64)
+        if model.orientation and known:  # heading and scale known: predicted, as in _missed
+            pos += rotate(carry, theta) * s
+            pos_var += s**2 * (carry**2).sum(axis=1) * self._theta_var()
+            theta = wrap_angle(theta + turn)
+            carry, turn = np.zeros_like(carry), np.zeros_like(turn)
+        return Tracks(
+            slot=slot,
+            row=np.full(n_par, -1),
+            pos=pos,
+            pos_var=pos_var,
+            theta=theta,
+            p_tt=p_tt,
+            log_s=np.full(n_par, math.log(s) if known else np.nan),
+            p_ts=np.zeros(n_par),
+            p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
+            logw=self.uniform[slot] + self.log_miss,
+            carry=carry,
+            turn=turn,
+        )
+
+    def _missed(
+        self, tracks: Tracks, interval: Interval, pix_var: float
+    ) -> tuple[Tracks, np.ndarray, np.ndarray]:
+        """Continue a robot's heaviest tracks through a miss: to the predicted position if the
+        heading and scale are known, otherwise still anchored at their newest detection with the
+        robot's own motion carried (the next row is tested on the whole displacement). The
+        weight of the other tracks returns to "position unknown"."""
+        logw = tracks.logw + self.log_miss
+        # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
+        kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
+        predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
+        var_d, var_dphi = interval.variances(self.model.odometry_noise)
+        push_var = push_isotropic(interval)
+        k = np.flatnonzero(kept & predicts)
+        slot = tracks.slot[k]
+        d = interval.d[slot]
+        s = np.exp(tracks.log_s[k])
+        rho = np.hypot(*d.T)
+        moved = rotate(d, tracks.theta[k]) * s[:, None]
+        predicted = Tracks(
+            slot=slot,
+            row=np.full(len(k), -1),
+            pos=tracks.pos[k] + moved,
+            pos_var=tracks.pos_var[k]
+            + s**2 * (var_d[slot] + push_var[slot])
+            + (s * rho) ** 2 * tracks.p_tt[k],
+            theta=wrap_angle(tracks.theta[k] + interval.dphi[slot]),
+            p_tt=tracks.p_tt[k] + var_dphi[slot],
+            log_s=tracks.log_s[k],
+            p_ts=tracks.p_ts[k],
+            p_ss=tracks.p_ss[k],
+            logw=logw[k],
+            carry=np.zeros((len(k), 2)),
+            turn=np.zeros(len(k)),
+        )
+        c = np.flatnonzero(kept & ~predicts)
+        carried = tracks.take(c)
+        carried.logw = logw[c]
+        carried.row = np.full(len(c), -1)
+        slot = carried.slot
+        scale_known = np.isfinite(carried.log_s)
+        s_high = self.model.scale_bounds[1]
+        s = np.where(scale_known, np.exp(np.where(scale_known, carried.log_s, 0.0)), s_high)
+        carried.pos_var = carried.pos_var + s**2 * (var_d[slot] + push_var[slot])
+        carried.p_tt = carried.p_tt + var_dphi[slot]
+        carried.carry, carried.turn = carried.own_motion(interval)
+        lost = np.flatnonzero(~kept)
+        return Tracks.concat([predicted, carried]), tracks.slot[lost], logw[lost]
+
+    def _children(
+        self,
+        parent: Tracks,
+        rows: np.ndarray,
+        cand: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """Extend each parent track by candidate row ``cand`` (same length): weight and state."""
+        model = self.model
+        if len(cand) == 0:
+            return Tracks.empty()
+        z = rows[cand]
+        geo = Geometry(parent, z, interval, model, pix_var)
+        child = Child.start(parent)
+        heading_known = np.isfinite(parent.theta)
+        scale_known = np.isfinite(parent.log_s)
+        s_low, s_high = model.scale_bounds
+        # A. heading unknown, scale known: the ring.
+        a = ~heading_known & scale_known
+        if a.any():
+            child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
+            learn = a & ~geo.still & (geo.r > 0)
+            child.heading_from_displacement(learn, geo)
+        # C. heading and scale unknown: any length in the scale range, log-uniform scale.
+        c = ~heading_known & ~scale_known
+        if c.any():
+            scale_free(c, geo, child, s_low, s_high)
+            learn = c & ~geo.still & (geo.r > 0)
+            child.heading_from_displacement(learn, geo)
+            child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
+            child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
+            child.p_ts[learn] = 0.0
+        # D. heading known, scale unknown: the direction is tested, the length sets the scale.
+        dd = heading_known & ~scale_known
+        if dd.any():
+            direction_only(dd, geo, parent, child, s_low, s_high)
+        # B. heading known, scale known or estimated: extended Kalman filter on (theta, log s).
+        b = heading_known & scale_known
+        if b.any():
+            kalman(b, geo, parent, child)
+        # The detected heading, if any, is one more measurement.
+        if model.orientation:
+            orientation(z[:, 2], self._theta_var(), child.theta, child.p_tt, child.loglik)
+        logw = parent.logw + self.log_pd + child.loglik - log_bg
+        # Children more than PRUNE_NATS below their robot's best child are pruned later anyway
+        # (the best over all hypotheses is at least as high): drop them before they are copied.
+        # Parents come grouped by robot, so the best child of each robot is a reduceat.
+        slot = parent.slot
+        starts = group_starts(slot)
+        best = np.maximum.reduceat(logw, starts)
+        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+        keep = np.flatnonzero(logw >= floor)  # False for -inf and nan
+        return Tracks(
+            slot=slot[keep],
+            row=cand[keep],
+            pos=z[keep, :2],
+            pos_var=np.full(len(keep), pix_var),
+            theta=wrap_angle(child.theta[keep]),
+            p_tt=child.p_tt[keep],
+            log_s=child.log_s[keep],
+            p_ts=child.p_ts[keep],
+            p_ss=child.p_ss[keep],
+            logw=logw[keep],
+            carry=np.zeros((len(keep), 2)),
+            turn=np.zeros(len(keep)),
+        )
+
+    def _normalise_and_prune(self) -> None:
+        tracks = self.tracks
+        n_rows = 0 if self.rows is None else len(self.rows)
+        log_rows = math.log(n_rows) if n_rows else -np.inf
+        uniform_total = self.uniform + log_rows
+        best = np.maximum(uniform_total, self.unanchored)
+        if len(tracks):
+            np.maximum.at(best, tracks.slot, tracks.logw)
+        lost = ~np.isfinite(best)
+        if lost.any():  # the model ruled everything out (it does not fit): start over
+            self.unanchored[lost] = 0.0
+            best[lost] = 0.0
+        keep = tracks.logw >= best[tracks.slot] - PRUNE_NATS
+        if lost.any():
+            keep &= ~lost[tracks.slot]
+        if not keep.all():
+            tracks = tracks.take(np.flatnonzero(keep))
+        # Sort by robot, heaviest first (one key: every kept weight is within PRUNE_NATS of its
+        # robot's best), and cap the number of tracks per robot: keep the heaviest.
+        below = best[tracks.slot] - tracks.logw
+        order = np.argsort(tracks.slot * (2.0 * PRUNE_NATS + 2.0) + below, kind="stable")
+        rank = rank_in_group(tracks.slot[order])
+        tracks = tracks.take(
+            order if rank.max(initial=0) < self.max_tracks else order[rank < self.max_tracks]
+        )
+        # Normalise each robot's weights to sum to one.
+        sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
+        sums += np.bincount(
+            tracks.slot, weights=np.exp(tracks.logw - best[tracks.slot]), minlength=self.n
+        )
+        total = best + np.log(sums)
+        tracks.logw = tracks.logw - total[tracks.slot]
+        self.uniform = self.uniform - total
+        self.unanchored = self.unanchored - total
+        # Implicit weights too small to matter stop costing anything.
+        self.uniform[self.uniform + log_rows < -PRUNE_NATS] = -np.inf
+        self.unanchored[self.unanchored < -PRUNE_NATS] = -np.inf
+        self.tracks = tracks
+
+    def _compute_belief(self) -> None:
+        n_rows = 0 if self.rows is None else len(self.rows)
+        tracks = self.tracks
+        weights = np.exp(tracks.logw)
+        seen = tracks.row >= 0
+        flat = tracks.slot[seen] * n_rows + tracks.row[seen]
+        belief = np.bincount(flat, weights=weights[seen], minlength=self.n * n_rows)
+        belief = belief.reshape(self.n, n_rows) + np.exp(self.uniform)[:, None]
+        missing = np.exp(self.unanchored) + np.bincount(
+            tracks.slot[~seen], weights=weights[~seen], minlength=self.n
+        )
+        total = belief.sum(axis=1) + missing
+        self._belief = belief / total[:, None]
+        self._missing = missing / total
+
+    def belief(self) -> np.ndarray:
+        """``(R, n)`` probability that each row of the newest picture is robot i."""
+        if self._belief is None:
+            raise RuntimeError("no picture yet: call update() first")
+        return self._belief
+
+    def missing(self) -> np.ndarray:
+        """``(R,)`` probability that robot i is not in the newest picture."""
+        return self._missing
+
+    def n_tracks(self) -> np.ndarray:
+        """``(R,)`` explicit hypotheses kept per robot (a measure of ambiguity and cost)."""
+        return np.bincount(self.tracks.slot, minlength=self.n)
+
+
+def picture_rows(picture: Picture) -> np.ndarray:
+    """The ``(n, 3)`` detection rows of a picture."""
+    return picture.detections

@@ -1,0 +1,142 @@
+"""The likelihood model: what a robot knows of its camera, detector and wheels, and the densities
+of a displacement under it. See :mod:`anonloc_env.identify` for the model as a whole."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from anonloc_env._checks import check_number, check_pair
+from anonloc_env.camera import Camera
+from anonloc_env.config import EnvConfig
+from anonloc_env.images.errors import effective_camera
+from anonloc_env.odometry import Interval
+
+LOG_2PI = math.log(2.0 * math.pi)
+#: Gates reach this many standard deviations.
+GATE_SIGMAS = 5.0
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """What a robot knows (or assumes) about its camera, detector and wheels.
+
+    Attributes:
+        scale: image units per metre; ``None`` if unknown (then estimated per hypothesis).
+        scale_range: ``(low, high)`` prior range of the scale when it is unknown.
+        scale_spread: relative standard deviation of the scale across the image (a tilted
+            camera), in [0, 1).
+        pixel_noise: standard deviation of a detection's ``u`` and ``v`` (image units).
+        orientation: whether detections carry a measured heading.
+        orientation_noise: standard deviation of a detected heading (rad).
+        p_detect: probability that the robot is in a picture, in (0, 1].
+        image_area: area of the field of view (image units squared), where other detections lie.
+        odometry_noise: multiplicative noise of each control step's distance and turn.
+    """
+
+    scale: float | None
+    scale_range: tuple[float, float]
+    scale_spread: float
+    pixel_noise: float
+    orientation: bool
+    orientation_noise: float
+    p_detect: float
+    image_area: float
+    odometry_noise: float
+
+    def __post_init__(self) -> None:
+        if self.scale is not None:
+            check_number("scale", self.scale, 0.0, low_open=True)
+        low, high = check_pair("scale_range", self.scale_range)
+        if not high >= low:
+            raise ValueError(f"scale_range must have high >= low, got {self.scale_range}")
+        check_number("scale_spread", self.scale_spread, 0.0, 1.0, high_open=True)
+        check_number("pixel_noise", self.pixel_noise, 0.0)
+        check_number("orientation_noise", self.orientation_noise, 0.0, math.pi)
+        check_number("p_detect", self.p_detect, 0.0, 1.0, low_open=True)
+        check_number("image_area", self.image_area, 0.0, low_open=True)
+        check_number("odometry_noise", self.odometry_noise, 0.0, 1.0, high_open=True)
+
+    @classmethod
+    def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
+        """The model a robot would build from the nominal specs of ``config``.
+
+        The scale is the mean over the arena of the camera's local scale (what the paper did with
+        its 20.8 to 22.07 range); its spread across the arena becomes ``scale_spread``. With
+        ``scale_known=False`` the scale is left to be estimated within 0.5x to 2x of it.
+        """
+        camera = Camera(config)
+        width, height = config.arena_size
+        grid = np.stack(
+            np.meshgrid(np.linspace(0, width, 9), np.linspace(0, height, 9)), axis=-1
+        ).reshape(-1, 2)
+        local = camera.local_scale(grid)
+        mean = float(local.mean())
+        u_min, v_min, u_max, v_max = camera.field_of_view
+        cam = effective_camera(config)  # the image source's measured errors, if it is used
+        return cls(
+            scale=mean if scale_known else None,
+            scale_range=(0.5 * mean, 2.0 * mean),
+            scale_spread=float(local.std() / mean),
+            pixel_noise=cam.pixel_noise,
+            orientation=cam.orientation,
+            orientation_noise=math.radians(cam.orientation_noise_deg),
+            p_detect=1.0 - cam.p_miss,
+            image_area=max((u_max - u_min) * (v_max - v_min), 1e-9),
+            odometry_noise=config.robot.odometry_noise,
+        )
+
+    @property
+    def scale_bounds(self) -> tuple[float, float]:
+        """``(low, high)`` scale: the known scale twice, or the prior range."""
+        if self.scale is not None:
+            return (self.scale, self.scale)
+        return self.scale_range
+
+
+def push_isotropic(interval: Interval) -> np.ndarray:
+    """``(R,)`` variance per component (m^2) of the unseen contact pushes, spread evenly."""
+    cov = interval.push_covariance()
+    return 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
+
+
+def log_i0e(x: np.ndarray) -> np.ndarray:
+    """``log(I0(x) exp(-x))`` for ``x >= 0`` (Abramowitz and Stegun 9.8.1-2, error < 2e-7)."""
+    x = np.asarray(x, dtype=np.float64)
+    small = x < 3.75
+    out = np.empty_like(x)
+    t = (x[small] / 3.75) ** 2
+    i0 = 1.0 + t * (
+        3.5156229
+        + t * (3.0899424 + t * (1.2067492 + t * (0.2659732 + t * (0.0360768 + t * 0.0045813))))
+    )
+    out[small] = np.log(i0) - x[small]
+    big = ~small
+    t = 3.75 / x[big]
+    poly = 0.39894228 + t * (
+        0.01328592
+        + t
+        * (
+            0.00225319
+            + t
+            * (
+                -0.00157565
+                + t
+                * (
+                    0.00916281
+                    + t * (-0.02057706 + t * (0.02635537 + t * (-0.01647633 + t * 0.00392377)))
+                )
+            )
+        )
+    )
+    out[big] = np.log(poly) - 0.5 * np.log(x[big])
+    return out
+
+
+def ring_loglik(r: np.ndarray, rho: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """Log density of a 2-D displacement of length ``r`` when it is ``rho`` long in an unknown,
+    uniform direction, with isotropic Gaussian noise of variance ``var`` per component."""
+    x = r * rho / var
+    return -LOG_2PI - np.log(var) - (r - rho) ** 2 / (2.0 * var) + log_i0e(x)

@@ -1,0 +1,229 @@
+"""An exact reference for the identifier on small cases: every track enumerated, nothing gated.
+
+For each robot, every sequence of "which row of each picture was me, or missed" is scored under
+the model of :mod:`anonloc_env.identify` without its approximations: no gates, no pruning, no cap
+on the tracks continued through a miss, and the heading (and the scale, when unknown) integrated
+numerically instead of linearised. Given the heading at the first picture ``theta0`` and the
+scale ``s``, a track's positions are a linear-Gaussian chain (the first detection uniform over the
+image, then ``x' = x + s R(theta) d`` plus the model's displacement noise, each detection ``x``
+plus pixel noise), so a Kalman filter gives its likelihood exactly; ``theta0`` (uniform) and
+``log s`` (uniform over the prior range) are integrated on a grid fine enough to resolve the
+narrowest likelihood. A detection of the robot weighs ``P_D f / lambda`` against one of the other
+detections (density ``lambda`` over the image, headings uniform), a miss ``1 - P_D``.
+
+Exact only where the model's heading is deterministic given ``theta0``: the odometry must be
+noise-free (``model.odometry_noise == 0``) and no contact may have pushed a robot
+(``interval.push is None``); the scale spread of a tilted camera is kept (the model treats it as
+displacement noise). The cost grows as the product of (rows + 1) over the pictures, so it refuses
+more than :data:`MAX_TRACKS` tracks per robot (N <= 6 and 5 pictures fit); prefixes that a
+bound shows cannot matter (:data:`REFERENCE_MARGIN_NATS`) are dropped as it goes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env.geometry import wrap_angle
+from anonloc_env.identify.model import LOG_2PI, SensorModel
+from anonloc_env.odometry import Interval
+
+#: Most tracks enumerated per robot.
+MAX_TRACKS = 200_000
+#: Grid points per standard deviation of the narrowest likelihood in theta0 or log s (the
+#: midpoint rule on a Gaussian this well sampled errs by about exp(-2 pi^2 3^2) = 1e-77).
+POINTS_PER_SIGMA = 3.0
+#: A track prefix is dropped only when, in the most favourable future for it and the least for
+#: the best one, it stays this far below (exp(-60) times at most MAX_TRACKS tracks: < 1e-20).
+REFERENCE_MARGIN_NATS = 60.0
+
+
+def _log_weights(
+    model: SensorModel, pictures: list[np.ndarray]
+) -> tuple[float, float, list[float], float]:
+    """``(log P_D, log (1 - P_D), log lambda per picture, pixel variance)`` as the identifier
+    takes them (the same floors)."""
+    log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
+    log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
+    log_bg = [
+        math.log(max(len(rows) - model.p_detect, 0.5) / model.image_area) for rows in pictures
+    ]
+    extent = max((float(np.abs(r[:, :2]).max()) for r in pictures if len(r)), default=1.0)
+    pix_var = model.pixel_noise**2 + (1e-4 + 1e-6 * extent) ** 2
+    return log_pd, log_miss, log_bg, pix_var
+
+
+def _grids(
+    model: SensorModel, intervals: list[Interval], robot: int, pix_var: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Midpoint grids over ``theta0`` and ``log s`` resolving the narrowest likelihood."""
+    s_low, s_high = model.scale_bounds
+    rho = [float(np.hypot(*iv.d[robot])) for iv in intervals]
+    longest = max([r for r in rho if r > 0], default=0.0)
+    widths = [math.pi]
+    if longest > 0:
+        # The heading and log scale are known to about sigma / (s |d|) after one leg; k legs
+        # shrink that by sqrt(k).
+        widths.append(math.sqrt(2 * pix_var) / (s_low * longest) / math.sqrt(len(intervals)))
+    if model.orientation:
+        widths.append(max(model.orientation_noise, 1e-3) / math.sqrt(len(intervals) + 1))
+    step = min(widths) / POINTS_PER_SIGMA
+    n_theta = int(min(max(math.ceil(2 * math.pi / step), 64), 16384))
+    theta = -math.pi + (np.arange(n_theta) + 0.5) * (2 * math.pi / n_theta)
+    if s_high > s_low:
+        span = math.log(s_high / s_low)
+        n_s = int(min(max(math.ceil(span / step), 8), 2048))
+        log_s = math.log(s_low) + (np.arange(n_s) + 0.5) * (span / n_s)
+    else:
+        log_s = np.array([math.log(s_low)])
+    return theta, log_s
+
+
+def exact_beliefs(
+    model: SensorModel,
+    pictures: list[np.ndarray],
+    intervals: list[Interval],
+    *,
+    chunk: int = 64,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The exact posterior of every robot at every picture.
+
+    Args:
+        model: the sensor model (``odometry_noise`` must be 0).
+        pictures: the ``(n_k, 3)`` rows ``(u, v, theta)`` of pictures ``0 .. K-1``.
+        intervals: the ``K - 1`` intervals between them (R robots each; no pushes).
+        chunk: memory cap: live tracks times grid points at most ``chunk * MAX_TRACKS``.
+
+    Returns:
+        For each picture k: ``(belief, missing)`` with ``belief`` ``(R, n_k)``, the probability
+        that row j is robot i, and ``missing`` ``(R,)`` that robot i is in none of the rows
+        (the same quantities as ``Identifier.belief()`` and ``Identifier.missing()``).
+
+    Raises:
+        ValueError: noisy odometry, pushes, mismatched lengths, or too many tracks.
+    """
+    if model.odometry_noise != 0.0:
+        raise ValueError(
+            f"the exact reference needs model.odometry_noise == 0, got {model.odometry_noise}"
+        )
+    if len(intervals) != len(pictures) - 1:
+        raise ValueError(
+            f"intervals must be one fewer than pictures ({len(pictures) - 1}), got {len(intervals)}"
+        )
+    if any(iv.push is not None for iv in intervals):
+        raise ValueError("the exact reference needs intervals without pushes (interval.push)")
+    pictures = [np.asarray(p, dtype=np.float64).reshape(-1, 3) for p in pictures]
+    tracks = math.prod(len(p) + 1 for p in pictures)
+    if tracks > MAX_TRACKS:
+        raise ValueError(f"{tracks} tracks per robot exceed MAX_TRACKS={MAX_TRACKS}")
+    n_robots = len(intervals[0].d) if intervals else 1
+    out = [(np.zeros((n_robots, len(p))), np.zeros(n_robots)) for p in pictures]
+    for robot in range(n_robots):
+        for k, (belief, missing) in enumerate(_one_robot(model, pictures, intervals, robot, chunk)):
+            out[k][0][robot] = belief
+            out[k][1][robot] = missing
+    return out
+
+
+def _one_robot(
+    model: SensorModel,
+    pictures: list[np.ndarray],
+    intervals: list[Interval],
+    robot: int,
+    chunk: int,
+) -> list[tuple[np.ndarray, float]]:
+    log_pd, log_miss, log_bg, pix_var = _log_weights(model, pictures)
+    theta_grid, log_s_grid = _grids(model, intervals, robot, pix_var)
+    th0 = np.repeat(theta_grid, len(log_s_grid))[None, :]
+    s = np.exp(np.tile(log_s_grid, len(theta_grid)))[None, :]
+    log_grid = math.log(th0.shape[1])
+    var_z = model.orientation_noise**2 + 1e-10
+    turn = np.concatenate([[0.0], np.cumsum([iv.dphi[robot] for iv in intervals])])
+    # Bounds on what one picture can multiply a track's weight by: at most the best detection
+    # (a Kalman innovation is at least 2 pixel variances wide), at least a miss (always there).
+    heading_gain = LOG_2PI - 0.5 * math.log(2 * math.pi * var_z) if model.orientation else 0.0
+    best_gain = [
+        max(log_miss, log_pd - b - LOG_2PI - math.log(2 * pix_var) + heading_gain, log_pd - b)
+        for b in log_bg
+    ]
+    # State of every live track prefix at every grid point.
+    track_rows = np.zeros((1, 0), dtype=np.int64)
+    anchored = np.zeros(1, dtype=bool)
+    mean = np.zeros((1, th0.shape[1], 2))
+    var = np.zeros((1, th0.shape[1]))
+    loglik = np.zeros((1, th0.shape[1]))
+    out = []
+    for k, rows in enumerate(pictures):
+        n_k = len(rows)
+        if k > 0:
+            d = intervals[k - 1].d[robot]
+            heading = th0 + turn[k - 1]
+            step = np.stack(
+                [
+                    np.cos(heading) * d[0] - np.sin(heading) * d[1],
+                    np.sin(heading) * d[0] + np.cos(heading) * d[1],
+                ],
+                axis=-1,
+            )
+            mean = mean + step * s[..., None]
+            var = var + (model.scale_spread * s * math.hypot(*d)) ** 2
+        # Every prefix continues with a miss or with each row.
+        options = n_k + 1
+        parent = np.repeat(np.arange(len(loglik)), options)
+        row = np.tile(np.arange(-1, n_k), len(loglik))
+        track_rows = np.column_stack([track_rows[parent], row])
+        anchored, mean, var, loglik = anchored[parent], mean[parent], var[parent], loglik[parent]
+        seen = row >= 0
+        loglik[~seen] += log_miss
+        if n_k:
+            z = rows[np.maximum(row, 0)]
+            first = seen & ~anchored
+            again = seen & anchored
+            loglik[seen] += log_pd - log_bg[k]
+            # First detection: uniform over the image.
+            loglik[first] -= math.log(model.image_area)
+            mean[first] = z[first][:, None, :2]
+            var[first] = pix_var
+            # Again: the Kalman filter's innovation.
+            if again.any():
+                e = z[again][:, None, :2] - mean[again]
+                total = var[again] + pix_var
+                loglik[again] += -LOG_2PI - np.log(total) - (e**2).sum(-1) / (2 * total)
+                gain = var[again] / total
+                mean[again] = mean[again] + gain[..., None] * e
+                var[again] = var[again] * (1 - gain)
+            if model.orientation:
+                err = wrap_angle(z[seen][:, None, 2] - (th0 + turn[k]))
+                # Against the uniform heading of the other detections.
+                loglik[seen] += LOG_2PI - 0.5 * (math.log(2 * math.pi * var_z) + err**2 / var_z)
+            anchored = anchored | seen
+        # Integrate over the grid (prior: uniform, 1 / points per point).
+        logw = np.logaddexp.reduce(loglik, axis=1) - log_grid
+        w = np.exp(logw - logw.max())
+        w /= w.sum()
+        belief = np.bincount(row + 1, weights=w, minlength=options)
+        out.append((belief[1:], float(belief[0])))
+        # Drop prefixes that cannot matter at any later picture: even if every later picture
+        # multiplied them by the most possible and the best prefix by the least, they would
+        # stay PRUNE_NATS below it (a bound, not an approximation: about 1e-17 at most).
+        rest = len(pictures) - 1 - k
+        if rest:
+            up = sum(best_gain[k + 1 :])
+            down = rest * log_miss
+            keep = logw + up >= logw.max() + down - REFERENCE_MARGIN_NATS
+            keep_i = np.flatnonzero(keep)
+            track_rows, anchored = track_rows[keep_i], anchored[keep_i]
+            mean, var, loglik = mean[keep_i], var[keep_i], loglik[keep_i]
+            if len(loglik) * th0.shape[1] > chunk * MAX_TRACKS:
+                raise ValueError(
+                    f"{len(loglik)} live tracks x {th0.shape[1]} grid points: too large"
+                )
+    return out
+
+
+def total_variation(
+    belief: np.ndarray, missing: np.ndarray, ref_belief: np.ndarray, ref_missing: np.ndarray
+) -> np.ndarray:
+    """``(R,)`` total variation distance between two posteriors over rows plus "not in it"."""
+    return 0.5 * (np.abs(belief - ref_belief).sum(axis=1) + np.abs(missing - ref_missing))
