@@ -1,9 +1,26 @@
-"""Training callbacks: what the logs show besides PPO's own figures."""
+"""Training callbacks: what the logs show besides PPO's own figures, and a wall-clock budget."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
+
+
+class WallClockBudget(BaseCallback):
+    """Stops training (after the current rollout) once ``minutes`` of wall time have passed."""
+
+    def __init__(self, minutes: float) -> None:
+        super().__init__()
+        self.minutes = minutes
+        self._start = time.monotonic()
+
+    def _on_training_start(self) -> None:
+        self._start = time.monotonic()
+
+    def _on_step(self) -> bool:
+        return time.monotonic() - self._start < 60.0 * self.minutes
 
 
 class IdentificationLogger(BaseCallback):

@@ -53,7 +53,7 @@ class TrainConfig:
     extractor: str = "deepsets"
     """Features extractor over the rows: ``deepsets``, ``attention`` or ``flat``."""
     timesteps: int = 200_000
-    """Total robot-steps of experience (slots x steps)."""
+    """Total robot-decisions of experience (slots x decisions; one decision per picture)."""
     n_envs: int = 4
     """Copies of the env (slots = copies x robots)."""
     seed: int = 0
@@ -61,17 +61,20 @@ class TrainConfig:
     learning_rate: float = 3e-4
     """Adam step size."""
     n_steps: int = 128
-    """Steps per slot between two updates."""
+    """Decisions per slot between two updates."""
     batch_size: int = 1024
     """Minibatch size (samples; at most one rollout, ``n_steps`` x slots)."""
     n_epochs: int = 4
     """Passes over each rollout."""
     gamma: float = 0.99
-    """Discount per control step."""
+    """Discount per decision (per picture interval)."""
     ent_coef: float = 0.0
     """Entropy bonus."""
+    minutes: float | None = None
+    """Wall-clock budget: stop (and save) after this many minutes even if ``timesteps`` are not
+    reached; None: no budget."""
     checkpoint_every: int = 50_000
-    """Robot-steps between checkpoints."""
+    """Robot-decisions between checkpoints."""
     out: str = "runs"
     """Folder of the runs."""
     name: str | None = None
@@ -99,6 +102,8 @@ class TrainConfig:
         check_number("gamma", self.gamma, 0.0, 1.0)
         check_number("ent_coef", self.ent_coef, 0.0)
         check_number("checkpoint_every", self.checkpoint_every, 1, integer=True)
+        if self.minutes is not None:
+            check_number("minutes", self.minutes, 0.0, low_open=True)
         check_number("torch_threads", self.torch_threads, 1, 1024, integer=True)
         if self.name is not None and not re.fullmatch(r"[A-Za-z0-9._-]+", self.name):
             raise ValueError(f"name must use letters, digits, '.', '_' or '-', got {self.name!r}")
@@ -217,7 +222,7 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.logger import configure
 
-    from agents.callbacks import IdentificationLogger
+    from agents.callbacks import IdentificationLogger, WallClockBudget
 
     start = time.perf_counter()
     torch.set_num_threads(config.torch_threads)
@@ -234,7 +239,10 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     model.set_logger(configure(str(directory / "tb"), ["tensorboard", "csv"]))
     model.learn(
         total_timesteps=max(config.timesteps - model.num_timesteps, 0),
-        callback=CallbackList([checkpoints, IdentificationLogger()]),
+        callback=CallbackList(
+            [checkpoints, IdentificationLogger()]
+            + ([] if config.minutes is None else [WallClockBudget(config.minutes)])
+        ),
         reset_num_timesteps=checkpoint is None,
         progress_bar=config.progress,
     )
