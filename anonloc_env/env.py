@@ -14,7 +14,7 @@ from anonloc_env.actions import stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
-from anonloc_env.observation import ObservationBuilder, observation_space
+from anonloc_env.observation import ObservationBuilder, observation_space, space_copy
 from anonloc_env.odometry import Interval, Odometry
 from anonloc_env.presets import PRESETS
 from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
@@ -128,9 +128,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.agents: list[str] = []
         obs_space = observation_space(self.config, self.camera.capacity)
         action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        # One space object per agent, built once: seeding one agent's space leaves the others alone.
+        # One space object per agent, built once: seeding one agent's space leaves the others
+        # alone. They share one set of (read-only) bound arrays: memory stays linear in N.
         self.observation_spaces = {
-            agent: obs_space if i == 0 else observation_space(self.config, self.camera.capacity)
+            agent: obs_space if i == 0 else space_copy(obs_space)
             for i, agent in enumerate(self.possible_agents)
         }
         self.action_spaces = {
