@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import numbers
 import warnings
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -87,6 +89,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     `render_mode` (`None`, `"human"` or `"rgb_array"`), `reward_fn` (a `RewardFunction`), and
     `detector` (a `DetectionSource` to replace the built-in geometric camera).
 
+    ## Copies
+    A copy made with `pickle` or `copy.deepcopy` is rebuilt from the constructor's arguments
+    (`EzPickle`): it is a new env that must be `reset()` before it steps, whatever the episode of
+    the original was. To replay an episode, reset the copy with the same seed and actions.
+
     ## Version History
     * v0: initial release.
     """
@@ -119,6 +126,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
+        if detector is not None and not callable(getattr(detector, "take", None)):
+            raise TypeError(
+                "detector must have a take(poses, rng, time, index) method returning a Picture "
+                f"(see anonloc_env.DetectionSource), got {type(detector).__name__}"
+            )
         self.detector: DetectionSource = detector if detector is not None else self.camera
         self.max_cycles = self.config.max_cycles
         """Steps before truncation; may be changed between episodes (``parallel_api_test`` does)."""
@@ -193,22 +205,30 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             options: ``{"poses": (N, 3) array}`` sets the initial poses ``(x, y, theta)`` in m
                 and rad. Other keys are ignored with a warning listing the valid ones.
         """
-        if seed is not None:
-            self._rng = np.random.default_rng(seed)
-        elif self._rng is None:
-            self._rng = np.random.default_rng()
+        # Everything is checked before any state changes: a refused reset leaves the running
+        # episode (and its generator) as it was.
+        if seed is not None and (
+            isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or seed < 0
+        ):
+            raise ValueError(f"seed must be None or an integer >= 0, got {seed!r}")
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(
+                f"options must be a dict such as {{'poses': array (N, 3)}} or None, got {options!r}"
+            )
         options = dict(options or {})
-        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        unknown = sorted(map(str, set(options) - set(RESET_OPTIONS)))
         if unknown:
             warnings.warn(
                 f"reset options {unknown} are ignored; valid options: {list(RESET_OPTIONS)}",
                 stacklevel=2,
             )
+        given = check_poses(self.config, options["poses"]) if "poses" in options else None
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        elif self._rng is None:
+            self._rng = np.random.default_rng()
         rng = self._rng
-        if "poses" in options:
-            poses = check_poses(self.config, options["poses"])
-        else:
-            poses = random_poses(self.config, rng)
+        poses = given if given is not None else random_poses(self.config, rng)
         self.world = World(self.config, poses)
         self.odometry = self._new_odometry()
         self.schedule = PictureSchedule(self.config.schedule, self.config.dt, rng)
@@ -244,6 +264,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         dict[str, dict[str, Any]],
     ]:
         """Hold every robot's command for ``dt``, advance physics once, maybe take a picture."""
+        if self.world is None:
+            raise RuntimeError(
+                "step() called before reset(): call reset() first (a new env, or a copy made "
+                "with pickle or copy.deepcopy, starts unreset)"
+            )
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
         world = self.world

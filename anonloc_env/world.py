@@ -38,7 +38,7 @@ import pymunk
 import pymunk.batch as pmb
 
 from anonloc_env.config import EnvConfig, placement_spacing, substeps_needed
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.overlap import robot_overlaps, wall_overlaps
 
 #: A robot whose sub-step displacement differs from its command by more than this fraction of
 #: its size was pushed or blocked by a contact: its bumper fires.
@@ -105,39 +105,41 @@ def random_poses(config: EnvConfig, rng: np.random.Generator) -> np.ndarray:
 
 
 def check_poses(config: EnvConfig, poses: object) -> np.ndarray:
-    """Validate user-given initial poses: shape ``(N, 3)``, finite, inside the arena."""
-    arr = np.asarray(poses, dtype=np.float64)
+    """Validate user-given initial poses: shape ``(N, 3)``, finite, and every robot's *shape*
+    (not only its centre) inside the arena and clear of the others (touching is allowed)."""
     n = config.n_robots
+    expected = f"an array of shape (n_robots, 3) = ({n}, 3): rows of numbers (x, y, theta)"
+    if isinstance(poses, (str, bytes)):
+        raise TypeError(f"options['poses'] must be {expected}, got {poses!r}")
+    try:
+        arr = np.array(poses, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"options['poses'] must be {expected}; {error}") from None
     if arr.shape != (n, 3):
-        raise ValueError(
-            f"options['poses'] must have shape (n_robots, 3) = ({n}, 3) rows of (x, y, theta), "
-            f"got shape {arr.shape}"
-        )
+        raise ValueError(f"options['poses'] must be {expected}, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError("options['poses'] must be finite")
-    i, j, _ = pairs_within(arr[:, :2], arr[:, :2], config.robot.size)
-    clash = i < j
+    robot = config.robot
+    tolerance = 1e-9 * robot.size
+    i, j, depth = robot_overlaps(robot, arr)
+    clash = depth > tolerance
     if clash.any():
         a, b = int(i[clash][0]), int(j[clash][0])
         raise ValueError(
-            f"options['poses'][{a}] and [{b}] overlap: robots' centres must be at least the "
-            f"robot size ({config.robot.size:g} m) apart"
+            f"options['poses'][{a}] and [{b}] overlap by {float(depth[clash][0]):.3g} m: the "
+            f"robots' shapes ({robot.shape}s of size {robot.size:g} m at these headings) must "
+            "not overlap"
         )
-    margin = config.robot.size / 2.0
-    width, height = config.arena_size
-    outside = (
-        (arr[:, 0] < margin)
-        | (arr[:, 0] > width - margin)
-        | (arr[:, 1] < margin)
-        | (arr[:, 1] > height - margin)
-    )
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
+    into_wall = wall_overlaps(robot, config.arena_size, arr) > tolerance
+    if into_wall.any():
+        k = int(np.flatnonzero(into_wall)[0])
+        width, height = config.arena_size
         raise ValueError(
-            f"options['poses'][{k}] = {arr[k].tolist()} puts the robot outside the arena: x must "
-            f"be in [{margin:g}, {width - margin:g}] and y in [{margin:g}, {height - margin:g}] m"
+            f"options['poses'][{k}] = {arr[k].tolist()} puts part of the robot outside the arena "
+            f"[0, {width:g}] x [0, {height:g}] m: its {robot.shape} of size {robot.size:g} m at "
+            "that heading must lie wholly inside"
         )
-    return arr.copy()
+    return arr
 
 
 class World:
@@ -196,8 +198,8 @@ class World:
         self._square = robot.shape == "square"
         self._half = np.float64(half)
         width, height = config.arena_size
-        self._x_max = np.float64(width + self._wall_slack)
-        self._y_max = np.float64(height + self._wall_slack)
+        self._x_max = np.float64(width)
+        self._y_max = np.float64(height)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
 

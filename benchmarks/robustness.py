@@ -63,7 +63,10 @@ class Tracker:
 
 
 def soak(steps: int, n: int, seed: int) -> None:
-    env = anonloc_env.parallel_env(n_robots=n, reward_fn=anonloc_env.EnergyCost())
+    # The 4 m arena of the default preset, as in the issue (n_robots alone would grow it).
+    env = anonloc_env.parallel_env(
+        n_robots=n, arena_size=(4.0, 4.0), reward_fn=anonloc_env.EnergyCost()
+    )
     rng = np.random.default_rng(seed)
     tracker = Tracker(env)
     episodes = 0
@@ -80,7 +83,10 @@ def soak(steps: int, n: int, seed: int) -> None:
 
 
 def corner(n: int, seconds: float) -> None:
-    env = anonloc_env.parallel_env(n_robots=n, reward_fn=anonloc_env.EnergyCost())
+    # The 4 m arena of the default preset, as in the issue (n_robots alone would grow it).
+    env = anonloc_env.parallel_env(
+        n_robots=n, arena_size=(4.0, 4.0), reward_fn=anonloc_env.EnergyCost()
+    )
     env.reset(seed=0)
     tracker = Tracker(env)
     for _ in range(round(seconds / env.config.dt)):
