@@ -101,7 +101,7 @@ def env(preset: str | None = None, **kwargs: Any) -> pettingzoo.AECEnv:
     return _CheckedActions(parallel_to_aec(parallel_env(preset, **kwargs)))
 
 
-class _CheckedActions(BaseWrapper):  # type: ignore[type-arg]  # pettingzoo's generics vary
+class _CheckedActions(BaseWrapper):
     """Refuses a malformed action at its agent's turn, before ``parallel_to_aec`` buffers it."""
 
     def step(self, action: Any) -> None:

@@ -39,6 +39,8 @@ def check_number(
     wanted = numbers.Integral if integer else numbers.Real
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
         raise TypeError(f"{name} must be {kind}, got {value!r} ({type(value).__name__})")
+    unchecked: Any = value  # numpy scalars as Python numbers, compared below
+    value = int(unchecked) if integer else float(unchecked)
     if not integer and not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     too_low = value <= low if low_open else value < low

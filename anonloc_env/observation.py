@@ -70,10 +70,11 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
 def space_copy(space: spaces.Dict) -> spaces.Dict:
     """A new observation space equal to ``space`` with its own random generator, whose boxes
     share ``space``'s bound arrays (read-only): N agents' spaces then cost O(N), not O(N * D)."""
-    boxes = {}
+    boxes: dict[str, spaces.Space[Any]] = {}
     for key, box in space.spaces.items():
+        assert isinstance(box, spaces.Box)  # observation_space builds boxes only
         clone = copy.copy(box)
-        clone._np_random = None  # seeded on its own, like a space built afresh
+        clone._np_random = None  # type: ignore[assignment]  # seeded on its own, as if new
         for bound in (box.low, box.high, box.bounded_below, box.bounded_above):
             bound.flags.writeable = False
         boxes[key] = clone

@@ -14,7 +14,9 @@ from anonloc_env.config import RobotConfig
 from anonloc_env.neighbours import pairs_within
 
 
-def half_extents(robot: RobotConfig, theta: np.ndarray, axis_angle: np.ndarray) -> np.ndarray:
+def half_extents(
+    robot: RobotConfig, theta: np.ndarray, axis_angle: np.ndarray | float
+) -> np.ndarray:
     """Half the length of each robot's projection on the axis at ``axis_angle`` (m)."""
     half = robot.size / 2.0
     if robot.shape == "circle":
@@ -49,7 +51,8 @@ def robot_overlaps(
             for quarter in (0.0, np.pi / 2.0):
                 phi = poses[owner, 2] + quarter
                 gap = np.abs(d[:, 0] * np.cos(phi) + d[:, 1] * np.sin(phi))
-                reach = half_extents(robot, poses[i, 2], phi) + half_extents(robot, poses[j, 2], phi)
+                reach = half_extents(robot, poses[i, 2], phi)
+                reach += half_extents(robot, poses[j, 2], phi)
                 np.minimum(depth, reach - gap, out=depth)
     hit = depth > 0.0
     return i[hit], j[hit], depth[hit]

@@ -343,9 +343,8 @@ class BodyBatch:
                 data.fields = fields.value
                 data.floatArray = buffer._float_arr
                 data.intArray = buffer._int_arr
-                name = "pmSpaceBodySetIteratorFuncBatched" if setter else (
-                    "pmSpaceBodyGetIteratorFuncBatched"
-                )
+                kind = "Set" if setter else "Get"
+                name = f"pmSpaceBody{kind}IteratorFuncBatched"
                 return (self.space._space, ffi.addressof(lib, name), data)
 
             self._force_call = call(self._force_buffer, _FORCE_FIELDS, True)
