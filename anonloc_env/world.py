@@ -108,15 +108,15 @@ def check_poses(config: EnvConfig, poses: object) -> np.ndarray:
     """Validate user-given initial poses: shape ``(N, 3)``, finite, and every robot's *shape*
     (not only its centre) inside the arena and clear of the others (touching is allowed)."""
     n = config.n_robots
-    expected = f"an array of shape (n_robots, 3) = ({n}, 3): rows of numbers (x, y, theta)"
+    expected = f"must have shape (n_robots, 3) = ({n}, 3): rows of numbers (x, y, theta)"
     if isinstance(poses, (str, bytes)):
-        raise TypeError(f"options['poses'] must be {expected}, got {poses!r}")
+        raise TypeError(f"options['poses'] {expected}, got {poses!r}")
     try:
         arr = np.array(poses, dtype=np.float64)
     except (TypeError, ValueError) as error:
-        raise TypeError(f"options['poses'] must be {expected}; {error}") from None
+        raise TypeError(f"options['poses'] {expected}; {error}") from None
     if arr.shape != (n, 3):
-        raise ValueError(f"options['poses'] must be {expected}, got shape {arr.shape}")
+        raise ValueError(f"options['poses'] {expected}, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError("options['poses'] must be finite")
     robot = config.robot
