@@ -74,7 +74,7 @@ def space_copy(space: spaces.Dict) -> spaces.Dict:
     for key, box in space.spaces.items():
         assert isinstance(box, spaces.Box)  # observation_space builds boxes only
         clone = copy.copy(box)
-        clone._np_random = None  # type: ignore[assignment]  # seeded on its own, as if new
+        vars(clone)["_np_random"] = None  # seeded on its own, as if new
         for bound in (box.low, box.high, box.bounded_below, box.bounded_above):
             bound.flags.writeable = False
         boxes[key] = clone
