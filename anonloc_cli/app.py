@@ -14,7 +14,13 @@ from enum import Enum
 from pathlib import Path
 from typing import Annotated, NoReturn
 
-import typer
+try:
+    import typer
+except ModuleNotFoundError as missing:  # the script is installed even without the extra
+    if missing.name != "typer":
+        raise
+    sys.stderr.write("anonloc: the command line needs its extra: pip install 'anonloc[cli]'\n")
+    raise SystemExit(1) from None
 
 from anonloc_cli.sweeps import DEFAULT_SEEDS, SWEEPS  # plain data, nothing heavy
 
@@ -126,10 +132,46 @@ def _command(verbose: int) -> Iterator[None]:
 
 
 def _check_address(backend: Backend, address: str | None) -> None:
+    """Checked before any work: a wrong backend must not leave an empty store behind."""
+    import importlib.util
+
     from anonloc_cli.scenarios import InputError
 
     if address is not None and backend is not Backend.ray:
         raise InputError("--address only applies to --backend ray")
+    if backend is Backend.ray and importlib.util.find_spec("ray") is None:
+        raise InputError("--backend ray needs Ray: pip install 'anonloc[ray]'")
+
+
+def _check_out(out: Path, *, folder: bool) -> None:
+    """Refuse an --out that cannot be written before any work is done."""
+    import tempfile
+
+    from anonloc_cli.scenarios import InputError
+
+    if folder:
+        if out.exists() and not out.is_dir():
+            raise InputError(f"--out {out} is a file; give a folder")
+        parent = out
+        while not parent.exists():  # the folder is made later: check its first existing parent
+            parent = parent.parent
+    else:
+        suffix = out.suffix.lower()
+        if suffix in (".md", ".json", ".jsonl"):
+            raise InputError(
+                f"--out {out}: {suffix} files are written beside the output (summary, metadata, "
+                "store); give a .csv or .parquet file"
+            )
+        if out.is_dir():
+            raise InputError(f"--out {out} is a folder; give a file such as {out / 'bench.csv'}")
+        parent = out.parent
+    if not parent.is_dir():
+        raise InputError(f"--out {out}: {parent} is not a folder")
+    try:
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as error:
+        raise InputError(f"--out {out}: cannot write in {parent} ({error.strerror})") from None
 
 
 @app.command()
@@ -152,6 +194,7 @@ def reproduce(
     """
     with _command(verbose):
         _check_address(backend, address)
+        _check_out(out, folder=True)
         from anonloc_cli import reproduce as command
         from baselines.paper import EXPERIMENTS
 
@@ -209,6 +252,7 @@ def bench(
     """
     with _command(verbose):
         _check_address(backend, address)
+        _check_out(out, folder=False)
         from anonloc_cli import bench as command
         from anonloc_cli import policies, scenarios
 
@@ -262,6 +306,7 @@ def study(
     """
     with _command(verbose):
         _check_address(backend, address)
+        _check_out(out, folder=True)
         from anonloc_cli import study as command
 
         command.check_sweeps(sweep or [])

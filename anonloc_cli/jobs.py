@@ -22,6 +22,7 @@ import logging
 import os
 import signal
 import socket
+import sys
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Mapping, Sequence
@@ -210,9 +211,22 @@ def run_units(
 Finished = Callable[[Unit, dict[str, Any]], None]
 
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the main process, which stops them."""
+def _worker_init(parent: int) -> None:
+    """Workers leave Ctrl-C to the main process, which stops them, and die with it.
+
+    A forked worker holds the store's file (and its lock) open: if it outlived a ``kill -9`` of
+    the main process, a rerun could not resume until it was killed by hand. On Linux the kernel
+    sends it SIGKILL when its parent dies (``PR_SET_PDEATHSIG``); a parent that died before this
+    ran is caught by its pid.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _run_pool(todo: list[Unit], workers: int, retries: int, finished: Finished) -> list[str]:
@@ -227,7 +241,11 @@ def _run_pool(todo: list[Unit], workers: int, retries: int, finished: Finished) 
     failed: list[str] = []
     while queue or suspects:
         source, window = (suspects, 1) if suspects else (queue, workers)
-        pool = ProcessPoolExecutor(max_workers=min(window, len(source)), initializer=_ignore_sigint)
+        pool = ProcessPoolExecutor(
+            max_workers=min(window, len(source)),
+            initializer=_worker_init,
+            initargs=(os.getpid(),),
+        )
         running: dict[Future[dict[str, Any]], Unit] = {}
         broken = False
         try:

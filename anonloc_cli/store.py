@@ -4,7 +4,8 @@ The store holds one line per finished work unit, ``{"key", "unit", "result", ...
 written in one ``write`` of the complete line followed by ``fsync``, so an interrupted command
 (Ctrl-C, a killed process, a power cut) leaves every finished unit on disk and at worst one
 incomplete last line, which the next run drops before appending. Re-running a command skips the
-units whose keys are already in its store.
+units whose keys are already in its store. Each line carries a checksum of its record
+(``"sha256"``): a line edited by hand is not trusted, and its unit runs again.
 
 Final files (CSV, Parquet, Markdown, plots) are written to a temporary file in the same folder and
 moved into place with ``os.replace``: a reader sees the old file or the new one, never half of one.
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import io
 import json
 import logging
@@ -24,6 +26,9 @@ from pathlib import Path
 from typing import Any
 
 log = logging.getLogger(__name__)
+
+#: The field of a store line holding the checksum of the rest of its record.
+CHECKSUM = "sha256"
 
 
 class StoreBusyError(RuntimeError):
@@ -65,15 +70,24 @@ class Store:
         """Write one record as one complete line, and make it durable before returning."""
         if self._fd is None:
             raise RuntimeError("open the store with 'with Store(path) as store:' first")
-        line = (json.dumps(record, separators=(",", ":")) + "\n").encode()
+        sealed = {**record, CHECKSUM: _checksum(record)}
+        line = (json.dumps(sealed, separators=(",", ":")) + "\n").encode()
         written = 0
         while written < len(line):  # a single write for any realistic line; loop for safety
             written += os.write(self._fd, line[written:])
         os.fsync(self._fd)
 
 
+def _checksum(record: dict[str, Any]) -> str:
+    """SHA-256 of the record's canonical JSON (keys sorted), first 16 hex digits."""
+    text = json.dumps(record, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def read_records(path: Path) -> dict[str, dict[str, Any]]:
-    """The records of a store file by key; an unreadable line is skipped with a warning."""
+    """The records of a store file by key; an unreadable line, or one whose checksum does not
+    match (edited by hand, or written by another program), is skipped with a warning: its unit
+    runs again."""
     records: dict[str, dict[str, Any]] = {}
     if not Path(path).exists():
         return records
@@ -83,6 +97,13 @@ def read_records(path: Path) -> dict[str, dict[str, Any]]:
                 break  # an incomplete last line: the unit will run again
             try:
                 record = json.loads(raw)
+                if record.pop(CHECKSUM, None) != _checksum(record):
+                    log.warning(
+                        "skipping a line whose checksum does not match (edited?); its unit will "
+                        "run again",
+                        extra={"store": str(path), "line": number},
+                    )
+                    continue
                 records[record["key"]] = record
             except (ValueError, KeyError, TypeError):
                 log.warning(

@@ -13,9 +13,10 @@ from __future__ import annotations
 from typing import Any
 
 import pettingzoo
+from pettingzoo.utils import BaseWrapper
 from pettingzoo.utils.conversions import parallel_to_aec
 
-from anonloc_env.actions import to_actions, to_commands
+from anonloc_env.actions import stack_actions, to_actions, to_commands
 from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.config import (
     CameraConfig,
@@ -93,9 +94,22 @@ def env(preset: str | None = None, **kwargs: Any) -> pettingzoo.AECEnv:
     """The environment in PettingZoo's AEC API (``parallel_to_aec`` with order enforcing).
 
     Takes the same arguments as :func:`parallel_env`. The AEC form steps physics once after every
-    agent has acted, so time runs the same in both forms.
+    agent has acted, so time runs the same in both forms. Each action is checked at its agent's
+    turn: a bad one raises ``ValueError`` naming the agent and is not kept, so the agent can act
+    again.
     """
-    return parallel_to_aec(parallel_env(preset, **kwargs))
+    return _CheckedActions(parallel_to_aec(parallel_env(preset, **kwargs)))
+
+
+class _CheckedActions(BaseWrapper):
+    """Refuses a malformed action at its agent's turn, before ``parallel_to_aec`` buffers it."""
+
+    def step(self, action: Any) -> None:
+        agent = self.env.agent_selection
+        live = not (self.env.terminations.get(agent) or self.env.truncations.get(agent))
+        if live:
+            stack_actions({agent: action}, [agent])
+        self.env.step(action)
 
 
 def _register() -> None:

@@ -7,8 +7,11 @@ knows what to write instead.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Any
+
+import numpy as np
 
 
 def check_number(
@@ -32,8 +35,12 @@ def check_number(
     """
     kind = "an integer" if integer else "a number"
     high_open = high_open or high == math.inf  # infinity itself is never a valid value
-    if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
+    # numbers.Integral and numbers.Real include numpy's scalars (np.int64, np.float32).
+    wanted = numbers.Integral if integer else numbers.Real
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
         raise TypeError(f"{name} must be {kind}, got {value!r} ({type(value).__name__})")
+    unchecked: Any = value  # numpy scalars as Python numbers, compared below
+    value = int(unchecked) if integer else float(unchecked)
     if not integer and not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     too_low = value <= low if low_open else value < low
@@ -44,12 +51,20 @@ def check_number(
         raise ValueError(f"{name} must be in {left}{_fmt(low)}, {_fmt(high)}{right}, got {value!r}")
 
 
-def check_pair(name: str, value: Any, *, positive: bool = True) -> tuple[float, float]:
-    """Return ``value`` as a ``(float, float)`` tuple, or raise naming ``name``."""
+def check_pair(
+    name: str, value: Any, *, low: float = 0.0, high: float = math.inf
+) -> tuple[float, float]:
+    """Return ``value`` as a ``(float, float)`` tuple, or raise naming ``name``.
+
+    Each item must be a number in ``(low, high]`` when ``low`` is 0 (a length), else in
+    ``[low, high]``.
+    """
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
     if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
         raise TypeError(f"{name} must be a pair (a, b) of numbers, got {value!r}")
     for i, item in enumerate(value):
-        check_number(f"{name}[{i}]", item, 0.0 if positive else -math.inf, low_open=positive)
+        check_number(f"{name}[{i}]", item, low, high, low_open=low == 0.0)
     return (float(value[0]), float(value[1]))
 
 

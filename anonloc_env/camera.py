@@ -67,17 +67,21 @@ class DetectionSource(Protocol):
 
 def detection_capacity(config: EnvConfig) -> int:
     """Rows a picture may hold: every robot plus the false positives of all but one picture in a
-    million (unless ``observation.max_detections`` fixes it)."""
+    million (unless ``observation.max_detections`` fixes it).
+
+    The Poisson probabilities are summed in log space: ``exp(-mean)`` underflows for a mean
+    above about 745 (the config allows up to 1000).
+    """
     if config.observation.max_detections is not None:
         return config.observation.max_detections
     mean = config.camera.false_positives
     extra = 0
     if mean > 0.0:
-        term = cumulative = math.exp(-mean)
-        while 1.0 - cumulative > 1e-6:
-            extra += 1
-            term *= mean / extra
-            cumulative += term
+        top = math.ceil(mean + 20.0 * math.sqrt(mean) + 30.0)  # the tail beyond is < 1e-20
+        k = np.arange(top + 1)
+        log_factorial = np.concatenate([[0.0], np.cumsum(np.log(k[1:]))])
+        tail = 1.0 - np.cumsum(np.exp(k * math.log(mean) - mean - log_factorial))
+        extra = int(np.argmax(tail <= 1e-6))
     return config.n_robots + extra
 
 

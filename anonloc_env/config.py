@@ -18,12 +18,23 @@ never reaches the simulation.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from anonloc_env._checks import check_choice, check_number, check_pair
 
 ROBOT_SHAPES = ("square", "circle")
 CAMERA_SOURCES = ("geometric", "image")
+
+#: Fraction of the robot size a robot (corner included) may move in one physics sub-step.
+MAX_MOVE_PER_SUBSTEP = 0.1
+#: Most physics sub-steps one control step may take; a robot so small or fast that it needs more
+#: is refused (a step would take seconds or hang).
+MAX_SUBSTEPS = 1000
+#: Largest arena side, camera scale times arena side, and image coordinate accepted: far inside
+#: float32 (observations are float32), so that no detection can become infinite.
+MAX_LENGTH = 1e6
+MAX_IMAGE_COORDINATE = 1e9
 
 
 @dataclass(frozen=True)
@@ -32,11 +43,16 @@ class RobotConfig:
 
     Attributes:
         shape: ``"square"`` (as in the paper's Player-Stage robots) or ``"circle"``.
-        size: side of the square, or diameter of the circle (m), in (0, inf).
-        v_max: largest forward speed |v| a command can ask for (m/s), in (0, inf). An action of
+        size: side of the square, or diameter of the circle (m), in [1e-3, 1e3].
+        v_max: largest forward speed |v| a command can ask for (m/s), in (0, 1e6]. An action of
             +1 (or -1) on the first component means ``v = +v_max`` (or ``-v_max``).
-        omega_max: largest turn rate |w| (rad/s), in (0, inf). An action of +1 on the second
+        omega_max: largest turn rate |w| (rad/s), in (0, 1e6]. An action of +1 on the second
             component means a counter-clockwise turn at ``omega_max``.
+
+    Physics moves a robot at most a tenth of its size per sub-step, so a control step of
+    ``dt`` takes ``ceil((v_max + omega_max * radius) * dt / (0.1 * size))`` sub-steps; the
+    :class:`EnvConfig` refuses a robot and ``dt`` that would need more than 1000 (see
+    :func:`substeps_needed`).
         odometry_noise: standard deviation of the multiplicative error of each control step's
             measured travelled distance and turned angle (dimensionless, in [0, 1)); 0 means
             exact wheel encoders.
@@ -50,9 +66,9 @@ class RobotConfig:
 
     def __post_init__(self) -> None:
         check_choice("robot.shape", self.shape, ROBOT_SHAPES)
-        check_number("robot.size", self.size, 0.0, low_open=True)
-        check_number("robot.v_max", self.v_max, 0.0, low_open=True)
-        check_number("robot.omega_max", self.omega_max, 0.0, low_open=True)
+        check_number("robot.size", self.size, 1e-3, 1e3)
+        check_number("robot.v_max", self.v_max, 0.0, 1e6, low_open=True)
+        check_number("robot.omega_max", self.omega_max, 0.0, 1e6, low_open=True)
         check_number("robot.odometry_noise", self.odometry_noise, 0.0, 1.0, high_open=True)
 
     @property
@@ -72,19 +88,22 @@ class CameraConfig:
     map into a homography: the scale then varies across the image (see :mod:`anonloc_env.camera`).
 
     Attributes:
-        scale: image units per metre at the arena centre, in (0, inf). The paper's lambda.
+        scale: image units per metre at the arena centre, in (0, 1e9]; ``scale`` times the
+            larger arena side must be at most 1e9 image units. The paper's lambda.
         tilt_deg: rotation of the camera about the world x axis through the arena centre (deg),
             in (-80, 80). Positive tilt puts the camera on the low-y side, so robots at larger y
             are farther away and look smaller.
-        height: distance from the camera to the arena centre (m), in (0, inf). Only matters with a
+        height: distance from the camera to the arena centre (m), in (0, 1e9]. Only matters with a
             tilt; it must exceed ``arena_height / 2 * |sin(tilt)|`` so the whole arena is in front
             of the camera.
-        principal_point: image coordinates ``(cu, cv)`` of the arena centre. ``None`` puts them at
+        principal_point: image coordinates ``(cu, cv)`` of the arena centre, each in [-1e9, 1e9]
+            (so that every image coordinate stays finite in float32). ``None`` puts them at
             ``scale * arena_size / 2``, so that untilted, the world origin maps to the image origin.
         image_size: ``(width, height)`` of the field of view in image units, centred on the
-            principal point; robots outside are not detected. ``None``: the whole arena is seen.
+            principal point, each in (0, 1e9]; robots outside are not detected. ``None``: the
+            whole arena is seen.
         pixel_noise: standard deviation of the Gaussian noise on ``u`` and ``v`` (image units),
-            in [0, inf).
+            in [0, 1e6].
         orientation: whether the detector measures each robot's heading (a fiducial marker such
             as the paper's ARToolKit patterns does; a blob detector does not). Without it the
             ``theta`` column of every picture is 0.
@@ -127,15 +146,21 @@ class CameraConfig:
     image_gradient: float = 0.0
 
     def __post_init__(self) -> None:
-        check_number("camera.scale", self.scale, 0.0, low_open=True)
+        check_number("camera.scale", self.scale, 0.0, MAX_IMAGE_COORDINATE, low_open=True)
         check_number("camera.tilt_deg", self.tilt_deg, -80.0, 80.0, low_open=True, high_open=True)
-        check_number("camera.height", self.height, 0.0, low_open=True)
+        check_number("camera.height", self.height, 0.0, MAX_IMAGE_COORDINATE, low_open=True)
         if self.principal_point is not None:
-            pp = check_pair("camera.principal_point", self.principal_point, positive=False)
+            pp = check_pair(
+                "camera.principal_point",
+                self.principal_point,
+                low=-MAX_IMAGE_COORDINATE,
+                high=MAX_IMAGE_COORDINATE,
+            )
             object.__setattr__(self, "principal_point", pp)
         if self.image_size is not None:
-            object.__setattr__(self, "image_size", check_pair("camera.image_size", self.image_size))
-        check_number("camera.pixel_noise", self.pixel_noise, 0.0)
+            size = check_pair("camera.image_size", self.image_size, high=MAX_IMAGE_COORDINATE)
+            object.__setattr__(self, "image_size", size)
+        check_number("camera.pixel_noise", self.pixel_noise, 0.0, 1e6)
         if not isinstance(self.orientation, bool):
             raise TypeError(f"camera.orientation must be True or False, got {self.orientation!r}")
         check_number(
@@ -166,7 +191,7 @@ class ScheduleConfig:
     step at or after that time. No picture is taken inside a blackout window.
 
     Attributes:
-        picture_interval: nominal time between two pictures (s), in (0, inf); at least ``dt``.
+        picture_interval: nominal time between two pictures (s), in (0, 1e9]; at least ``dt``.
         jitter: half-width of the uniform jitter of each picture time (s), in
             [0, picture_interval / 2).
         blackouts: windows ``(start, end)`` in seconds since reset, ``0 <= start < end``, during
@@ -178,13 +203,18 @@ class ScheduleConfig:
     blackouts: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
-        check_number("schedule.picture_interval", self.picture_interval, 0.0, low_open=True)
+        check_number("schedule.picture_interval", self.picture_interval, 0.0, 1e9, low_open=True)
         check_number(
             "schedule.jitter", self.jitter, 0.0, self.picture_interval / 2.0, high_open=True
         )
+        if isinstance(self.blackouts, (str, bytes)) or not isinstance(self.blackouts, Iterable):
+            raise TypeError(
+                "schedule.blackouts must be a sequence of (start, end) windows in seconds, e.g. "
+                f"((10.0, 20.0),), or () for none; got {self.blackouts!r}"
+            )
         windows = []
         for i, window in enumerate(self.blackouts):
-            start, end = check_pair(f"schedule.blackouts[{i}]", window, positive=False)
+            start, end = check_pair(f"schedule.blackouts[{i}]", window, low=-math.inf)
             check_number(f"schedule.blackouts[{i}][0] (start, s)", start, 0.0)
             if not end > start:
                 raise ValueError(
@@ -249,10 +279,13 @@ class EnvConfig:
 
     Attributes:
         n_robots: number N of identical robots, in [1, 100000].
-        arena_size: ``(width, height)`` of the walled arena (m); the lower-left corner is the
-            world origin. It must hold N robots without overlap.
+        arena_size: ``(width, height)`` of the walled arena (m), each in (0, 1e6]; the lower-left
+            corner is the world origin. It must hold N robots without overlap. (With
+            :func:`anonloc_env.make_config`, overriding ``n_robots`` alone grows the preset's
+            arena to keep its density; a size given explicitly is kept, and refused if too small.)
         dt: control step (s), in (0, 10]: a command is held this long; physics advances once per
-            ``step()`` (sub-stepped internally so nothing tunnels).
+            ``step()`` (sub-stepped internally so nothing tunnels, at most 1000 sub-steps: see
+            :class:`RobotConfig`).
         max_cycles: number of ``step()`` calls before every agent is truncated, in [1, inf).
         robot: see :class:`RobotConfig`.
         camera: see :class:`CameraConfig`.
@@ -273,9 +306,13 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         check_number("n_robots", self.n_robots, 1, 100_000, integer=True)
-        object.__setattr__(self, "arena_size", check_pair("arena_size", self.arena_size))
+        object.__setattr__(self, "n_robots", int(self.n_robots))
+        arena = check_pair("arena_size", self.arena_size, high=MAX_LENGTH)
+        object.__setattr__(self, "arena_size", arena)
         check_number("dt", self.dt, 0.0, 10.0, low_open=True)
+        object.__setattr__(self, "dt", float(self.dt))
         check_number("max_cycles", self.max_cycles, 1, integer=True)
+        object.__setattr__(self, "max_cycles", int(self.max_cycles))
         for name, cls in _SECTIONS.items():
             if not isinstance(getattr(self, name), cls):
                 raise TypeError(
@@ -286,6 +323,21 @@ class EnvConfig:
             raise ValueError(
                 f"picture_interval must be >= dt ({self.dt} s), "
                 f"got {self.schedule.picture_interval} s"
+            )
+        substeps = substeps_needed(self.robot, self.dt)
+        if substeps > MAX_SUBSTEPS:
+            raise ValueError(
+                f"robot.v_max + robot.omega_max * radius = "
+                f"{self.robot.v_max + self.robot.omega_max * self.robot.radius:g} m/s with "
+                f"robot.size={self.robot.size:g} m and dt={self.dt:g} s needs {substeps} physics "
+                f"sub-steps per step (a robot moves at most a tenth of its size per sub-step); "
+                f"at most {MAX_SUBSTEPS} are allowed: lower the speeds or dt, or enlarge the robot"
+            )
+        extent = self.camera.scale * max(self.arena_size)
+        if extent > MAX_IMAGE_COORDINATE:
+            raise ValueError(
+                f"camera.scale * the larger arena side must be at most {MAX_IMAGE_COORDINATE:g} "
+                f"image units (float32 observations stay finite), got {extent:g}"
             )
         capacity = arena_capacity(self.arena_size, self.robot)
         if self.n_robots > capacity:
@@ -326,6 +378,13 @@ _SECTIONS = {
     "observation": ObservationConfig,
     "reward": RewardConfig,
 }
+
+
+def substeps_needed(robot: RobotConfig, dt: float) -> int:
+    """Physics sub-steps per control step of ``dt`` s so that no robot (corner included) moves
+    more than a tenth of its size in one sub-step."""
+    fastest = robot.v_max + robot.omega_max * robot.radius
+    return max(1, math.ceil(fastest * dt / (MAX_MOVE_PER_SUBSTEP * robot.size)))
 
 
 def placement_spacing(robot: RobotConfig) -> float:

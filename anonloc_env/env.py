@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import numbers
 import warnings
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -14,7 +16,7 @@ from anonloc_env.actions import stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture, detection_source
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
-from anonloc_env.observation import ObservationBuilder, observation_space
+from anonloc_env.observation import ObservationBuilder, observation_space, space_copy
 from anonloc_env.odometry import Interval, Odometry
 from anonloc_env.presets import PRESETS
 from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
@@ -89,6 +91,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     `camera={"source": "image"}` pictures are rendered and their markers detected with OpenCV
     (`anonloc_env.images`, the `images` extra); `render` then shows the image in a corner.
 
+    ## Copies
+    A copy made with `pickle` or `copy.deepcopy` is rebuilt from the constructor's arguments
+    (`EzPickle`): it is a new env that must be `reset()` before it steps, whatever the episode of
+    the original was. To replay an episode, reset the copy with the same seed and actions.
+
     ## Version History
     * v0: initial release.
     """
@@ -121,6 +128,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
+        if detector is not None and not callable(getattr(detector, "take", None)):
+            raise TypeError(
+                "detector must have a take(poses, rng, time, index) method returning a Picture "
+                f"(see anonloc_env.DetectionSource), got {type(detector).__name__}"
+            )
         self.detector: DetectionSource = (
             detector if detector is not None else detection_source(self.config, self.camera)
         )
@@ -132,9 +144,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.agents: list[str] = []
         obs_space = observation_space(self.config, self.camera.capacity)
         action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        # One space object per agent, built once: seeding one agent's space leaves the others alone.
+        # One space object per agent, built once: seeding one agent's space leaves the others
+        # alone. They share one set of (read-only) bound arrays: memory stays linear in N.
         self.observation_spaces = {
-            agent: obs_space if i == 0 else observation_space(self.config, self.camera.capacity)
+            agent: obs_space if i == 0 else space_copy(obs_space)
             for i, agent in enumerate(self.possible_agents)
         }
         self.action_spaces = {
@@ -196,22 +209,30 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             options: ``{"poses": (N, 3) array}`` sets the initial poses ``(x, y, theta)`` in m
                 and rad. Other keys are ignored with a warning listing the valid ones.
         """
-        if seed is not None:
-            self._rng = np.random.default_rng(seed)
-        elif self._rng is None:
-            self._rng = np.random.default_rng()
+        # Everything is checked before any state changes: a refused reset leaves the running
+        # episode (and its generator) as it was.
+        if seed is not None and (
+            isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or seed < 0
+        ):
+            raise ValueError(f"seed must be None or an integer >= 0, got {seed!r}")
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(
+                f"options must be a dict such as {{'poses': array (N, 3)}} or None, got {options!r}"
+            )
         options = dict(options or {})
-        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        unknown = sorted(map(str, set(options) - set(RESET_OPTIONS)))
         if unknown:
             warnings.warn(
                 f"reset options {unknown} are ignored; valid options: {list(RESET_OPTIONS)}",
                 stacklevel=2,
             )
+        given = check_poses(self.config, options["poses"]) if "poses" in options else None
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        elif self._rng is None:
+            self._rng = np.random.default_rng()
         rng = self._rng
-        if "poses" in options:
-            poses = check_poses(self.config, options["poses"])
-        else:
-            poses = random_poses(self.config, rng)
+        poses = given if given is not None else random_poses(self.config, rng)
         self.world = World(self.config, poses)
         self.odometry = self._new_odometry()
         self.schedule = PictureSchedule(self.config.schedule, self.config.dt, rng)
@@ -247,6 +268,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         dict[str, dict[str, Any]],
     ]:
         """Hold every robot's command for ``dt``, advance physics once, maybe take a picture."""
+        if self.world is None:
+            raise RuntimeError(
+                "step() called before reset(): call reset() first (a new env, or a copy made "
+                "with pickle or copy.deepcopy, starts unreset)"
+            )
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
         world = self.world

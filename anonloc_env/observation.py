@@ -31,6 +31,7 @@ the frame at history picture k.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from itertools import repeat
 from typing import Any
@@ -64,6 +65,20 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
         entries["history_odometry"] = spaces.Box(-inf, inf, (k, 3), np.float32)
         entries["history_interval"] = spaces.Box(0.0, inf, (k,), np.float32)
     return spaces.Dict(entries)
+
+
+def space_copy(space: spaces.Dict) -> spaces.Dict:
+    """A new observation space equal to ``space`` with its own random generator, whose boxes
+    share ``space``'s bound arrays (read-only): N agents' spaces then cost O(N), not O(N * D)."""
+    boxes: dict[str, spaces.Space[Any]] = {}
+    for key, box in space.spaces.items():
+        assert isinstance(box, spaces.Box)  # observation_space builds boxes only
+        clone = copy.copy(box)
+        vars(clone)["_np_random"] = None  # seeded on its own, as if new
+        for bound in (box.low, box.high, box.bounded_below, box.bounded_above):
+            bound.flags.writeable = False
+        boxes[key] = clone
+    return spaces.Dict(boxes)
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:

@@ -103,11 +103,21 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
             ``camera``, ``schedule``, ``observation``, ``reward``, each either a dict of the fields
             to change or a whole config object.
 
+    When ``n_robots`` is given and ``arena_size`` is not, an arena too small for N at the preset's
+    density grows by ``sqrt(n_robots / preset.n_robots)`` on each side (its aspect kept), so
+    ``parallel_env(n_robots=1000)`` works; a smaller N keeps the preset's arena. An
+    ``arena_size`` given explicitly is used as is, and refused if it cannot hold N robots.
+
     Raises:
         ValueError: an unknown preset, override or field name (the message lists the valid
             ones), or a value out of range.
         TypeError: a section given as something other than a dict or its config class.
     """
+    if preset is not None and not isinstance(preset, str):
+        raise TypeError(
+            f"preset must be a preset name (one of {list(PRESETS)}) or None, got {preset!r}; "
+            "give the number of robots as n_robots=..."
+        )
     name = "default" if preset is None else preset
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}{_hint(name, PRESETS)}; valid: {list(PRESETS)}")
@@ -144,7 +154,23 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
     for section, fields in sections.items():
         current = changes.get(section, getattr(base, section))
         changes[section] = replace_fields(current, section, fields)
+    if "n_robots" in changes and "arena_size" not in changes:
+        scaled = _scaled_arena(base, changes["n_robots"])
+        if scaled is not None:
+            changes["arena_size"] = scaled
     return dataclasses.replace(base, **changes)
+
+
+def _scaled_arena(base: EnvConfig, n_robots: Any) -> tuple[float, float] | None:
+    """The preset's arena grown to hold ``n_robots`` at its density (None: keep it as is)."""
+    try:
+        ratio = float(n_robots) / base.n_robots
+    except (TypeError, ValueError, OverflowError):
+        return None  # not a number: the config's own check names the problem
+    if not ratio > 1.0 or not math.isfinite(ratio):
+        return None
+    growth = math.sqrt(ratio)
+    return (base.arena_size[0] * growth, base.arena_size[1] * growth)
 
 
 def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:

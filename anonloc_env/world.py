@@ -12,37 +12,49 @@ Design notes:
   iterators (no per-body Python loop on the step path; see :class:`BodyBatch`).
   ``cpSpaceEachBody`` visits the robots in the order they were added and the space's static body
   last; the order is checked once when the world is built.
-* pymunk integrates positions before it resolves contacts, so a wall is enforced through the
-  contact bias: overlap is halved at every sub-step, and a sub-step is short enough that a robot
-  moves at most a tenth of its size. A robot held against a wall at full speed overlaps it by at
-  most about a fifth of its size and never passes through.
+* Solve, then move. pymunk integrates positions at the start of a step with the velocities its
+  solver left at the end of the previous one. Writing the commanded velocities before each step
+  would discard the solver's work (robots would move into each other by their full command and
+  only the position correction would push them back out; crowds then overlapped by up to 80 %
+  of a size and a long column pushed into a wall passed through it). So each sub-step asks for
+  the command through the force that gives it in one sub-step (``damping = 0`` so the velocity
+  is exactly ``f * h``), lets pymunk detect contacts and solve the velocities against them, and
+  then moves every robot by its *solved* velocity itself (positions written back, velocities
+  zeroed so pymunk's own next integration only applies its position correction).
+* The walls are also a hard limit: after every sub-step a robot is clamped so that its shape
+  reaches at most ``_WALL_TOLERANCE`` of its size into a wall, whatever the push. No robot ever
+  leaves the arena, in any configuration.
+* A sub-step is short enough that a robot (corner included) moves at most a tenth of its size.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
-from anonloc_env.config import EnvConfig, placement_spacing
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.config import EnvConfig, placement_spacing, substeps_needed
+from anonloc_env.overlap import robot_overlaps, wall_overlaps
 
-#: Fraction of the robot size a robot (corner included) may move in one physics sub-step.
-_MAX_MOVE_PER_SUBSTEP = 0.1
 #: A robot whose sub-step displacement differs from its command by more than this fraction of
 #: its size was pushed or blocked by a contact: its bumper fires.
 _BUMP_TOLERANCE = 1e-9
 # Flag unions built once: combining enum flags costs microseconds per call.
-_SET_FIELDS = pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY
-_GET_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE
-#: One ``(x, y, theta)`` row: ``np.frombuffer`` with it gives ``(N, 3)`` arrays directly.
-_POSE = np.dtype((np.float64, 3))
-#: Fraction of the overlap of two shapes removed at every sub-step.
+_FORCE_FIELDS = pmb.BodyFields.FORCE
+_STATE_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE | pmb.BodyFields.VELOCITY
+#: One ``(x, y, theta, vx, vy)`` row: ``np.frombuffer`` with it gives ``(N, 5)`` arrays directly.
+_STATE = np.dtype((np.float64, 5))
+#: Fraction of the overlap of two shapes removed at every sub-step (pymunk's position correction).
 _OVERLAP_CORRECTION = 0.5
+#: pymunk's solver iterations per sub-step (its default, 10).
+_SOLVER_ITERATIONS = 10
+#: How deep (fraction of the robot size) a shape may reach into a wall before it is clamped: a
+#: little, so that pymunk still sees the contact and stops the robot itself.
+_WALL_TOLERANCE = 0.05
 
 
 class Motion(NamedTuple):
@@ -63,9 +75,7 @@ class Motion(NamedTuple):
 
 def substeps_for(config: EnvConfig) -> int:
     """Number of physics sub-steps per control step that keeps every move short (see module)."""
-    robot = config.robot
-    fastest = robot.v_max + robot.omega_max * robot.radius
-    return max(1, math.ceil(fastest * config.dt / (_MAX_MOVE_PER_SUBSTEP * robot.size)))
+    return substeps_needed(config.robot, config.dt)
 
 
 def random_poses(config: EnvConfig, rng: np.random.Generator) -> np.ndarray:
@@ -95,39 +105,41 @@ def random_poses(config: EnvConfig, rng: np.random.Generator) -> np.ndarray:
 
 
 def check_poses(config: EnvConfig, poses: object) -> np.ndarray:
-    """Validate user-given initial poses: shape ``(N, 3)``, finite, inside the arena."""
-    arr = np.asarray(poses, dtype=np.float64)
+    """Validate user-given initial poses: shape ``(N, 3)``, finite, and every robot's *shape*
+    (not only its centre) inside the arena and clear of the others (touching is allowed)."""
     n = config.n_robots
+    expected = f"must have shape (n_robots, 3) = ({n}, 3): rows of numbers (x, y, theta)"
+    if isinstance(poses, (str, bytes)):
+        raise TypeError(f"options['poses'] {expected}, got {poses!r}")
+    try:
+        arr = np.array(poses, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"options['poses'] {expected}; {error}") from None
     if arr.shape != (n, 3):
-        raise ValueError(
-            f"options['poses'] must have shape (n_robots, 3) = ({n}, 3) rows of (x, y, theta), "
-            f"got shape {arr.shape}"
-        )
+        raise ValueError(f"options['poses'] {expected}, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError("options['poses'] must be finite")
-    i, j, _ = pairs_within(arr[:, :2], arr[:, :2], config.robot.size)
-    clash = i < j
+    robot = config.robot
+    tolerance = 1e-9 * robot.size
+    i, j, depth = robot_overlaps(robot, arr)
+    clash = depth > tolerance
     if clash.any():
         a, b = int(i[clash][0]), int(j[clash][0])
         raise ValueError(
-            f"options['poses'][{a}] and [{b}] overlap: robots' centres must be at least the "
-            f"robot size ({config.robot.size:g} m) apart"
+            f"options['poses'][{a}] and [{b}] overlap by {float(depth[clash][0]):.3g} m: the "
+            f"robots' shapes ({robot.shape}s of size {robot.size:g} m at these headings) must "
+            "not overlap"
         )
-    margin = config.robot.size / 2.0
-    width, height = config.arena_size
-    outside = (
-        (arr[:, 0] < margin)
-        | (arr[:, 0] > width - margin)
-        | (arr[:, 1] < margin)
-        | (arr[:, 1] > height - margin)
-    )
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
+    into_wall = wall_overlaps(robot, config.arena_size, arr) > tolerance
+    if into_wall.any():
+        k = int(np.flatnonzero(into_wall)[0])
+        width, height = config.arena_size
         raise ValueError(
-            f"options['poses'][{k}] = {arr[k].tolist()} puts the robot outside the arena: x must "
-            f"be in [{margin:g}, {width - margin:g}] and y in [{margin:g}, {height - margin:g}] m"
+            f"options['poses'][{k}] = {arr[k].tolist()} puts part of the robot outside the arena "
+            f"[0, {width:g}] x [0, {height:g}] m: its {robot.shape} of size {robot.size:g} m at "
+            "that heading must lie wholly inside"
         )
-    return arr.copy()
+    return arr
 
 
 class World:
@@ -146,7 +158,8 @@ class World:
         robot = config.robot
 
         space = pymunk.Space(threaded=False)
-        space.damping = 1.0
+        space.damping = 0.0  # a body's velocity before the solve is exactly force * h (mass 1)
+        space.iterations = _SOLVER_ITERATIONS
         space.collision_slop = robot.size * 1e-3
         space.collision_bias = (1.0 - _OVERLAP_CORRECTION) ** (1.0 / self.substep_dt)
         self.space = space
@@ -168,14 +181,25 @@ class World:
         self._bodies = bodies  # keeps the Python wrappers alive next to the C bodies
         self._check_body_order(bodies)
 
-        # (N + 1, 3) velocities: robots first, the static body last (kept at rest).
-        self._velocity = np.zeros((self.n + 1, 3), dtype=np.float64)
-        self.batch = BodyBatch(space, self._velocity, self.n)
-        # Views of the robots' rows and columns, made once; ufuncs write into them.
-        self._robot_velocity = self._velocity[: self.n]
-        self._vx, self._vy, self._w = self._robot_velocity.T
+        # (N + 1, 2) forces and (N + 1, 5) states: robots first, the static body last (its row
+        # stays zero: it sits at the origin, at rest).
+        self._force = np.zeros((self.n + 1, 2), dtype=np.float64)
+        self._state = np.zeros((self.n + 1, 5), dtype=np.float64)
+        self.batch = BodyBatch(space, self._force, self._state, self.n)
+        # Views of the robots' columns, made once; ufuncs write into them.
+        self._fx, self._fy = self._force[: self.n].T
+        self._x, self._y, self._theta = self._state[: self.n, :3].T
+        self._pose_rows = self._state[: self.n, :3]
         # A numpy scalar: comparing an array with a Python float costs a conversion per call.
         self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
+        self._inv_h = np.float64(1.0 / self.substep_dt)
+        half = robot.size / 2.0
+        self._wall_slack = _WALL_TOLERANCE * robot.size
+        self._square = robot.shape == "square"
+        self._half = np.float64(half)
+        width, height = config.arena_size
+        self._x_max = np.float64(width)
+        self._y_max = np.float64(height)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
 
@@ -203,45 +227,77 @@ class World:
     def step(self, v: np.ndarray, w: np.ndarray) -> Motion:
         """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``.
 
-        The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
+        Each sub-step: the command as a force, pymunk's step (position correction, contacts,
+        velocity solve), then the move by the solved velocities, clamped to the arena (see the
+        module). The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
         broadcasts than on a few more 1-D calls.
         """
         h = self.substep_dt
-        vx, vy = self._vx, self._vy
+        fx, fy, inv_h = self._fx, self._fy, self._inv_h
         forward, turned = [], []
         worst = None  # per robot, largest gap between its displacement and its command
-        np.copyto(self._w, w)
+        turn = w * h
         for _ in range(self.substeps):
             poses = self.poses
             cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            np.multiply(v, cos, out=vx)
-            np.multiply(v, sin, out=vy)
-            self.batch.write_velocities()
+            speed = v * inv_h
+            np.multiply(speed, cos, out=fx)
+            np.multiply(speed, sin, out=fy)
+            self.batch.write_forces()
             self.space.step(h)
-            new = self.batch.read_poses()
+            state = self.batch.read_state()  # (N, 5): corrected poses and solved velocities
+            x, y = self._x, self._y
+            np.multiply(state[:, 3], h, out=x)
+            x += state[:, 0]
+            np.multiply(state[:, 4], h, out=y)
+            y += state[:, 1]
+            np.add(state[:, 2], turn, out=self._theta)
+            self._clamp_to_arena()
+            self.batch.write_state()
+            new = self._pose_rows.copy()
             delta = new - poses
             # Wheel encoders see the displacement along the heading only.
             along = delta[:, 0] * cos
             along += delta[:, 1] * sin
             forward.append(along)
             turned.append(delta[:, 2])
-            # Free motion moves exactly by the commanded velocity; a contact pushes it off. The
-            # whole (N, 3) rows are contiguous: one call each, the heading column is ignored.
-            off = self._robot_velocity * h
-            np.subtract(delta, off, out=off)
-            np.abs(off, out=off)
+            # Free motion moves exactly by the commanded velocity; a contact pushes it off.
+            off_x = np.abs(delta[:, 0] - v * cos * h)
+            off_y = np.abs(delta[:, 1] - v * sin * h)
             if worst is None:
-                worst = np.maximum(off[:, 0], off[:, 1])
+                worst = np.maximum(off_x, off_y)
             else:
-                np.maximum(worst, off[:, 0], out=worst)
-                np.maximum(worst, off[:, 1], out=worst)
+                np.maximum(worst, off_x, out=worst)
+                np.maximum(worst, off_y, out=worst)
             self.poses = new
         assert worst is not None  # substeps >= 1
         return Motion(forward, turned, worst > self._bump_tolerance)
 
+    def _clamp_to_arena(self) -> None:
+        """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces."""
+        x, y = self._x, self._y
+        if self._square:
+            theta = self._theta
+            c, s = np.abs(np.cos(theta)), np.abs(np.sin(theta))
+            extent = (c + s) * self._half
+        else:
+            extent = np.full(self.n, self._half)
+        extent -= self._wall_slack
+        # Robots well inside the arena (almost all) are left alone: one check, then the clamp.
+        if (
+            (x < extent).any()
+            or (y < extent).any()
+            or (x + extent > self._x_max).any()
+            or (y + extent > self._y_max).any()
+        ):
+            np.maximum(x, extent, out=x)
+            np.minimum(x, self._x_max - extent, out=x)
+            np.maximum(y, extent, out=y)
+            np.minimum(y, self._y_max - extent, out=y)
+
 
 class BodyBatch:
-    """Velocities of every body in, poses of the robots out: one C call each.
+    """Forces of every body in, states of the robots out, poses back in: one C call each.
 
     ``pymunk.batch.set_space_bodies`` and ``get_space_bodies`` build a ``pmBatchedData`` struct
     and read an enum at every call, which costs more than their C work for a hundred robots.
@@ -252,17 +308,28 @@ class BodyBatch:
 
     Args:
         space: the pymunk space.
-        velocity: ``(B, 3)`` float64 array, one ``(vx, vy, w)`` row per body of ``space`` in
-            ``cpSpaceEachBody`` order; :meth:`write_velocities` sends it to the bodies.
-        n: number of leading bodies (the robots) whose poses :meth:`read_poses` returns.
+        force: ``(B, 2)`` float64 array, one ``(fx, fy)`` row per body of ``space`` in
+            ``cpSpaceEachBody`` order; :meth:`write_forces` sends it to the bodies.
+        state: ``(B, 5)`` float64 array of ``(x, y, theta, vx, vy)`` rows in the same order;
+            :meth:`write_state` sends it to the bodies.
+        n: number of leading bodies (the robots) whose states :meth:`read_state` returns.
         fast: try the direct C calls (False: always use ``pymunk.batch``).
     """
 
-    def __init__(self, space: pymunk.Space, velocity: np.ndarray, n: int, fast: bool = True):
+    def __init__(
+        self,
+        space: pymunk.Space,
+        force: np.ndarray,
+        state: np.ndarray,
+        n: int,
+        fast: bool = True,
+    ):
         self.space = space
         self.n = n
-        self._set_buffer = pmb.Buffer()
-        self._set_buffer.set_float_buf(velocity.reshape(-1))
+        self._force_buffer = pmb.Buffer()
+        self._force_buffer.set_float_buf(force.reshape(-1))
+        self._state_buffer = pmb.Buffer()
+        self._state_buffer.set_float_buf(state.reshape(-1))
         self._get_buffer = pmb.Buffer()
         self.fast = fast and self._prepare_direct_calls()
 
@@ -271,24 +338,18 @@ class BodyBatch:
         try:
             from pymunk._chipmunk_cffi import ffi, lib
 
-            set_data = ffi.new("pmBatchedData *")
-            set_data.fields = _SET_FIELDS.value
-            set_data.floatArray = self._set_buffer._float_arr
-            set_data.intArray = self._set_buffer._int_arr
-            get_data = ffi.new("pmBatchedData *")
-            get_data.fields = _GET_FIELDS.value
-            get_data.floatArray = self._get_buffer._float_arr
-            get_data.intArray = self._get_buffer._int_arr
-            self._set_call = (
-                self.space._space,
-                ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched"),
-                set_data,
-            )
-            self._get_call = (
-                self.space._space,
-                ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched"),
-                get_data,
-            )
+            def call(buffer: pmb.Buffer, fields: pmb.BodyFields, setter: bool) -> tuple[Any, ...]:
+                data = ffi.new("pmBatchedData *")
+                data.fields = fields.value
+                data.floatArray = buffer._float_arr
+                data.intArray = buffer._int_arr
+                kind = "Set" if setter else "Get"
+                name = f"pmSpaceBody{kind}IteratorFuncBatched"
+                return (self.space._space, ffi.addressof(lib, name), data)
+
+            self._force_call = call(self._force_buffer, _FORCE_FIELDS, True)
+            self._state_call = call(self._state_buffer, _STATE_FIELDS, True)
+            self._get_call = call(self._get_buffer, _STATE_FIELDS, False)
             self._each_body = lib.cpSpaceEachBody
             self._ffi = ffi
         except Exception as error:  # any surprise in private internals: use the public path
@@ -301,30 +362,36 @@ class BodyBatch:
             return False
         return True
 
-    def write_velocities(self) -> None:
-        """Set every body's velocity and angular velocity from the ``velocity`` array."""
+    def _set(self, buffer: pmb.Buffer, fields: pmb.BodyFields, call: tuple[Any, ...]) -> None:
         if not self.fast:
-            pmb.set_space_bodies(self.space, _SET_FIELDS, self._set_buffer)
+            pmb.set_space_bodies(self.space, fields, buffer)
             return
         # The iterator reads the array from index ``num`` on; restore it afterwards, as
         # ``pymunk.batch.set_space_bodies`` does.
-        array = self._set_buffer._float_arr
+        array = buffer._float_arr
         size = array.num
         array.num = 0
-        self._each_body(*self._set_call)
+        self._each_body(*call)
         array.num = size
 
-    def read_poses(self) -> np.ndarray:
-        """A new ``(n, 3)`` array of the robots' poses ``(x, y, theta)``."""
+    def write_forces(self) -> None:
+        """Set every body's force from the ``force`` array."""
+        self._set(self._force_buffer, _FORCE_FIELDS, self._force_call if self.fast else ())
+
+    def write_state(self) -> None:
+        """Set every body's position, angle and velocity from the ``state`` array."""
+        self._set(self._state_buffer, _STATE_FIELDS, self._state_call if self.fast else ())
+
+    def read_state(self) -> np.ndarray:
+        """A view ``(n, 5)`` of the robots' ``(x, y, theta, vx, vy)``, valid until the next read."""
         buffer = self._get_buffer
         if self.fast:
             array = buffer._float_arr
             array.num = 0  # the iterator appends from ``num`` on (buffer.clear())
             self._each_body(*self._get_call)
-            data = self._ffi.buffer(array.arr, 3 * self.n * 8)
+            data = self._ffi.buffer(array.arr, 5 * self.n * 8)
         else:
             buffer.clear()
-            pmb.get_space_bodies(self.space, _GET_FIELDS, buffer)
+            pmb.get_space_bodies(self.space, _STATE_FIELDS, buffer)
             data = buffer.float_buf()
-        # A view of pymunk's buffer, which the next read overwrites: keep a copy.
-        return np.frombuffer(data, dtype=_POSE, count=self.n).copy()
+        return np.frombuffer(data, dtype=_STATE, count=self.n)

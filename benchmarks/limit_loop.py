@@ -1,7 +1,9 @@
 """The speed limit of anonloc's design: the same pymunk bodies, with nothing but the essentials.
 
-Each step: compute world velocities from an ``(N, 2)`` command array, write them with
-``pymunk.batch``, step the space once, read the poses back with ``pymunk.batch``, shuffle a picture
+Each step, with the space settings and the solve-then-move order of ``anonloc_env.world``: compute
+the forces that ask for the commanded velocities from an ``(N, 2)`` command array and write them
+with ``pymunk.batch``, step the space once, read the poses and solved velocities back, move the
+robots by those velocities and write the poses back (velocities zeroed), shuffle a picture
 every ``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
 env's) from views of shared arrays. No validation, odometry, rewards, infos or schedule.
 
@@ -24,6 +26,9 @@ class LimitLoop:
         self.n, self.dt, self.steps_per_picture = n, dt, steps_per_picture
         self.rng = np.random.default_rng(seed)
         self.space = pymunk.Space(threaded=False)
+        self.space.damping = 0.0  # as in anonloc_env.world: velocity before the solve = force * dt
+        self.space.collision_slop = 0.2 * 1e-3
+        self.space.collision_bias = 0.5 ** (1.0 / dt)
         grid = math.ceil(math.sqrt(n))
         for i in range(n):
             body = pymunk.Body(1.0, math.inf)
@@ -37,9 +42,12 @@ class LimitLoop:
         pmb.get_space_bodies(self.space, pmb.BodyFields.BODY_ID, buf)
         ids = np.frombuffer(buf.int_buf(), dtype=np.uintp)
         assert ids[-1] == self.space.static_body.id, "batch order: the static body comes last"
-        self.velocity = np.zeros((n + 1, 3))
+        self.force = np.zeros((n + 1, 2))
         self.set_buf = pmb.Buffer()
-        self.set_buf.set_float_buf(self.velocity.reshape(-1))
+        self.set_buf.set_float_buf(self.force.reshape(-1))
+        self.state = np.zeros((n + 1, 5))
+        self.state_buf = pmb.Buffer()
+        self.state_buf.set_float_buf(self.state.reshape(-1))
         self.get_buf = pmb.Buffer()
         self.poses = np.zeros((n, 3))
         self.agents = [f"robot_{i}" for i in range(n)]
@@ -54,18 +62,18 @@ class LimitLoop:
         """One step with ``commands`` ``(N, 2)`` = (v, w)."""
         n = self.n
         theta = self.poses[:, 2]
-        self.velocity[:n, 0] = commands[:, 0] * np.cos(theta)
-        self.velocity[:n, 1] = commands[:, 0] * np.sin(theta)
-        self.velocity[:n, 2] = commands[:, 1]
-        pmb.set_space_bodies(
-            self.space, pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY, self.set_buf
-        )
+        self.force[:n, 0] = commands[:, 0] * np.cos(theta) / self.dt
+        self.force[:n, 1] = commands[:, 0] * np.sin(theta) / self.dt
+        pmb.set_space_bodies(self.space, pmb.BodyFields.FORCE, self.set_buf)
         self.space.step(self.dt)
         self.get_buf.clear()
-        pmb.get_space_bodies(
-            self.space, pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE, self.get_buf
-        )
-        self.poses = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 3)[:n].copy()
+        fields = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE | pmb.BodyFields.VELOCITY
+        pmb.get_space_bodies(self.space, fields, self.get_buf)
+        state = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 5)[:n]
+        self.state[:n, :2] = state[:, :2] + state[:, 3:] * self.dt
+        self.state[:n, 2] = state[:, 2] + commands[:, 1] * self.dt
+        pmb.set_space_bodies(self.space, fields, self.state_buf)
+        self.poses = self.state[:n, :3].copy()
         self.steps += 1
         if self.steps % self.steps_per_picture == 0:
             self.picture = self.poses[self.rng.permutation(n)].astype(np.float32)

@@ -29,7 +29,7 @@ def _bench(tmp_path: Path, *extra: str) -> tuple[int, str]:
         (["--policy", "bayse"], ["unknown policy 'bayse'", "motion3"]),
         (["--set", "camera.pixl_noise=1"], ["unknown field camera.pixl_noise", "pixel_noise"]),
         (["--set", "camra.pixel_noise=1"], ["unknown override 'camra'", "camera"]),
-        (["--set", "camera.pixel_noise=-1"], ["camera.pixel_noise must be in [0, inf), got -1"]),
+        (["--set", "camera.pixel_noise=-1"], ["camera.pixel_noise must be in [0, 1e+06], got -1"]),
         (["--set", "n_robots=0"], ["n_robots must be in [1, 100000]"]),
         (["--set", "oops"], ["--set takes key=value"]),
         (["--excitation", "wiggle"], ["unknown excitation 'wiggle'", "swarm"]),
@@ -91,3 +91,35 @@ def test_reproduce_refuses_zero_runs(tmp_path: Path) -> None:
     result = invoke("reproduce", "--runs", "0", "--out", tmp_path)
     assert result.exit_code == 2
     assert "--runs" in result.output
+
+
+@pytest.mark.parametrize(
+    ("out", "message"),
+    [
+        ("{tmp}", "is a folder"),
+        ("/proc/b.csv", "cannot write in /proc"),
+        ("{tmp}/b.csv/x.csv", "is not a folder"),
+        ("{tmp}/b.md", ".md files are written beside the output"),
+    ],
+)
+def test_bench_out_is_checked_before_any_work(tmp_path: Path, out: str, message: str) -> None:
+    (tmp_path / "b.csv").write_text("")
+    target = out.format(tmp=tmp_path)
+    result = invoke(
+        "bench", "--scenario", "default", "--policy", "bayes", "--seeds", "1", "--out", target
+    )
+    assert result.exit_code == 2
+    assert message in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.csv"]  # nothing left behind
+
+
+def test_missing_cli_extra_prints_the_install_line() -> None:
+    import subprocess
+
+    code = "import sys; sys.modules['typer'] = None; import anonloc_cli.app"
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False, cwd=Path.cwd()
+    )
+    assert done.returncode == 1
+    assert "pip install 'anonloc[cli]'" in done.stderr
+    assert "Traceback" not in done.stderr

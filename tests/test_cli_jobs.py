@@ -91,3 +91,16 @@ def test_ray_backend_gives_the_same_rows_as_the_process_pool(tmp_path: Path) -> 
     assert read_csv(ray_out) == read_csv(pool_out)
     worker = json.loads((tmp_path / "ray.units.jsonl").read_text().splitlines()[0])["worker"]
     assert worker  # ran in a Ray worker process
+
+
+def test_an_edited_store_line_is_not_trusted(tmp_path: Path) -> None:
+    path = tmp_path / "s.jsonl"
+    with Store(path) as store:
+        for key in "abc":
+            store.append({"key": key, "result": {"success": 1}})
+    lines = path.read_text().splitlines()
+    lines[1] = lines[1].replace('"success":1', '"success":0')  # still valid JSON
+    path.write_text("\n".join(lines) + "\n")
+    records = read_records(path)
+    assert sorted(records) == ["a", "c"]  # b runs again
+    assert records["a"]["result"] == {"success": 1}
