@@ -224,8 +224,8 @@ def write_parquet(
     Args:
         path: the file.
         rows: dicts with the keys of ``types``.
-        types: column -> ``"string"``, ``"int64"``, ``"float64"``, ``"bool"`` or
-            ``"list<float64>"`` (lists stay lists).
+        types: column -> ``"string"``, ``"int64"``, ``"float64"``, ``"bool"``,
+            ``"list<float64>"`` or ``"list<bool>"`` (lists stay lists).
         metadata: the provenance record.
     """
     try:
@@ -241,6 +241,7 @@ def write_parquet(
         "float64": pa.float64(),
         "bool": pa.bool_(),
         "list<float64>": pa.list_(pa.float64()),
+        "list<bool>": pa.list_(pa.bool_()),
     }
     schema = pa.schema([(name, arrow[kind]) for name, kind in types.items()])
     schema = schema.with_metadata({"anonloc": json.dumps(metadata, default=str)})
