@@ -94,6 +94,7 @@ class StepResult:
     present: np.ndarray  # (R,) in that picture
     new_picture: bool
     energy: np.ndarray  # (R,) wheel travel in this interval (m)
+    steps: int  # control steps of the env in this interval
 
 
 class Crew:
@@ -169,7 +170,9 @@ class Crew:
         reward = np.zeros(self.n)
         spent = np.zeros(self.n)
         robot, dt = self.config.robot, self.config.dt
+        steps = 0
         while True:
+            steps += 1
             v, w = self.team.excitation.commands(self._step, dt)
             env_actions = to_actions(v, w, robot)
             self.team.commanded(env_actions)
@@ -202,4 +205,5 @@ class Crew:
             present=present,
             new_picture=step.new_picture,
             energy=spent,
+            steps=steps,
         )

@@ -33,8 +33,9 @@ class LearnedExcitation(HeldCommands):
     Args:
         model: a trained SB3 model (``predict(observation, deterministic=True)``).
         config: the scenario.
-        deterministic: act on the policy's mean action (default: every robot's randomness comes
-            from its own dice, so the choice is reproducible) or sample it (torch's generator).
+        deterministic: act on the policy's mean action (default; the robots still differ
+            through their dice), or sample the policy's Gaussian with each robot's own generator
+            (reproducible too: the team's seeds decide).
     """
 
     def __init__(self, model: Any, config: EnvConfig, deterministic: bool = True) -> None:
@@ -66,11 +67,25 @@ class LearnedExcitation(HeldCommands):
             self.observer.reset(self.rngs)
         self.observer.on_picture(step)
         observation = self.observer.observe(step, first=first)
-        actions, _ = self.model.predict(observation, deterministic=self.deterministic)
-        actions = np.clip(np.asarray(actions, np.float64), -1.0, 1.0).reshape(self.n, 2)
+        actions = np.clip(self._act(observation), -1.0, 1.0).reshape(self.n, 2)
         self.observer.last_command[:] = actions  # what the policy asked (before any duty)
         commands = actions * self._scale
         self.set(commands[:, 0], commands[:, 1])
+
+    def _act(self, observation: dict[str, np.ndarray]) -> np.ndarray:
+        if self.deterministic:
+            actions, _ = self.model.predict(observation, deterministic=True)
+            return np.asarray(actions, np.float64)
+        import torch
+
+        policy = self.model.policy
+        with torch.no_grad():
+            tensors, _ = policy.obs_to_tensor(observation)
+            normal = policy.get_distribution(tensors).distribution
+            mean = normal.mean.cpu().numpy().astype(np.float64)
+            std = normal.stddev.cpu().numpy().astype(np.float64)
+        noise = np.stack([rng.standard_normal(mean.shape[-1]) for rng in self.rngs])
+        return mean + std * noise
 
 
 def agent_file(path: str | Path) -> Path:

@@ -82,6 +82,9 @@ class AnonLocVecEnv(VecEnv):
         )
         self._copy_seeds: list[int | None] = [None] * self.n_envs
         self._actions: np.ndarray | None = None
+        self.control_steps = 0
+        """Env control steps simulated so far, all copies together (one decision is one picture
+        interval: several control steps)."""
         self._returns = np.zeros(self.num_envs)
         self._lengths = np.zeros(self.num_envs, np.int64)
 
@@ -119,6 +122,7 @@ class AnonLocVecEnv(VecEnv):
         for k, crew in enumerate(self.crews):
             slots = slice(k * n, (k + 1) * n)
             result = crew.step(self._actions[slots])
+            self.control_steps += result.steps
             rewards[slots] = result.reward
             self._returns[slots] += result.reward
             self._lengths[slots] += 1

@@ -12,10 +12,12 @@ Both sides train PPO (``stable_baselines3.PPO.learn``) with the same hyperparame
 ``VecEnv``, one torch thread:
 
 * ``anonloc``: :class:`agents.vec.AnonLocVecEnv` (what ``anonloc train`` trains on): the crew's
-  belief-annotated observation ``rows (D, 6)``, ``mask (D,)``, ``own (10,)`` and the crew's
-  reward (energy every step, identity information at pictures, from each robot's own
-  identifier), with ``MultiInputPolicy`` (SB3's ``CombinedExtractor`` flattens and concatenates
-  the keys, then ``net_arch`` 64-64 for the policy and for the value).
+  belief-annotated observation ``rows (D, 6)``, ``mask (D,)``, ``own (12,)`` and the crew's
+  reward (energy every step, the identity term at pictures, from each robot's own identifier),
+  with ``MultiInputPolicy`` (SB3's ``CombinedExtractor`` flattens and concatenates the keys, then
+  ``net_arch`` 64-64 for the policy and for the value). The policy decides once per picture and
+  its command is held until the next one, so one decision covers ``picture_interval / dt``
+  control steps (20 in the ``default`` scenario).
 * ``anonloc-flat``: the same with :class:`agents.features.FlatExtractor` (a 64-64 MLP before
   ``net_arch``), the order-dependent extractor of ``anonloc train``.
 * ``supersuit``: ``concat_vec_envs_v1(pettingzoo_env_to_vec_env_v1(env), copies,
@@ -26,8 +28,15 @@ Both sides train PPO (``stable_baselines3.PPO.learn``) with the same hyperparame
   ``ConcatVecEnv`` (it has no ``seed`` method), so that side runs with ``seed=None``.
 
 The observations differ (that is the point of the adapter), so the networks' inputs differ:
-``7 D + 10`` numbers for ``anonloc``, ``4 D + 10`` for ``supersuit``; the script prints each
+``7 D + 12`` numbers for ``anonloc``, ``4 D + 10`` for ``supersuit``; the script prints each
 policy's parameter count.
+
+Two rates are printed: **decisions/s** (samples PPO trains on per second: slots x policy calls)
+and **robot-steps/s** (robot control steps of experience simulated per second). For SuperSuit,
+which asks the policy at every control step, the two are equal; for ``anonloc`` one decision is
+a picture interval. Both ratios are printed: per decision the two sides do the same network work,
+so that ratio shows the adapter's overhead; per robot-step it shows how much more experience
+``anonloc train`` simulates in the same time.
 
 Timing: each repetition builds every model (not timed), then times ``learn`` over
 ``--rollouts`` rollouts (collection and PPO updates), the sides in an order that alternates
@@ -88,24 +97,35 @@ def build_supersuit(n_robots: int, copies: int, ppo: dict[str, Any]) -> Any:
     return PPO("MultiInputPolicy", supersuit_env(n_robots, copies), seed=None, verbose=0, **ppo)
 
 
-def learn_rate(model: Any, rollouts: int) -> float:
-    """Agent-steps per second of ``model.learn`` over ``rollouts`` rollouts."""
+def learn_rate(model: Any, rollouts: int) -> tuple[float, float]:
+    """Decisions and robot control steps per second of ``model.learn`` over ``rollouts``
+    rollouts."""
     steps = rollouts * model.n_steps * model.env.num_envs
+    vec = model.env
+    before = getattr(vec, "control_steps", None)
     start = time.perf_counter()
     model.learn(total_timesteps=steps)
-    return steps / (time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    if before is None:  # one decision per control step
+        return steps / seconds, steps / seconds
+    robots = vec.num_envs // len(vec.crews)
+    return steps / seconds, (vec.control_steps - before) * robots / seconds
 
 
 def env_rate(vec: Any, steps: int) -> float:
-    """Agent-steps per second of stepping ``vec`` with uniform random actions."""
+    """Robot control steps per second of stepping ``vec`` with uniform random actions."""
     rng = np.random.default_rng(SEED)
     actions = rng.uniform(-1.0, 1.0, (steps, vec.num_envs, 2)).astype(np.float32)
     vec.reset()
+    before = getattr(vec, "control_steps", None)
     start = time.perf_counter()
     for a in actions:
         vec.step_async(a)
         vec.step_wait()
-    return steps * vec.num_envs / (time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    if before is None:
+        return steps * vec.num_envs / seconds
+    return (vec.control_steps - before) * (vec.num_envs // len(vec.crews)) / seconds
 
 
 def parameters(model: Any) -> int:
@@ -124,6 +144,7 @@ def measure(
     }
     names = list(builders)
     learn: dict[str, list[float]] = {name: [] for name in names}
+    experience: dict[str, list[float]] = {name: [] for name in names}
     env: dict[str, list[float]] = {"anonloc": [], "supersuit": []}
     sizes: dict[str, int] = {}
     for repeat in range(repeats):
@@ -131,7 +152,9 @@ def measure(
         for name in order:
             model = builders[name]()
             sizes[name] = parameters(model)
-            learn[name].append(learn_rate(model, rollouts))
+            decisions, robot_steps = learn_rate(model, rollouts)
+            learn[name].append(decisions)
+            experience[name].append(robot_steps)
             model.env.close()
         env_order = ["anonloc", "supersuit"][:: 1 if repeat % 2 == 0 else -1]
         for name in env_order:
@@ -143,20 +166,25 @@ def measure(
             env[name].append(env_rate(vec, env_steps))
             vec.close()
     print(f"\n### N = {n_robots} robots, {copies} copies ({n_robots * copies} slots)\n")
-    print("| path | policy parameters | PPO.learn agent-steps/s | vs supersuit |")
-    print("|---|---:|---:|---:|")
+    print(
+        "| path | policy parameters | PPO.learn decisions/s | vs supersuit "
+        "| robot-steps/s | vs supersuit |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
     for name in names:
-        ratio = statistics.median(
-            a / b for a, b in zip(learn[name], learn["supersuit"], strict=True)
-        )
+        ratios = [
+            statistics.median(a / b for a, b in zip(rates[name], rates["supersuit"], strict=True))
+            for rates in (learn, experience)
+        ]
         print(
-            f"| {name} | {sizes[name]:,} | {statistics.median(learn[name]):,.0f} | {ratio:.2f}x |"
+            f"| {name} | {sizes[name]:,} | {statistics.median(learn[name]):,.0f} "
+            f"| {ratios[0]:.2f}x | {statistics.median(experience[name]):,.0f} | {ratios[1]:.2f}x |"
         )
     ratio = statistics.median(a / b for a, b in zip(env["anonloc"], env["supersuit"], strict=True))
     print(
         f"\nEnvironment alone (random actions, no network): anonloc "
-        f"{statistics.median(env['anonloc']):,.0f} agent-steps/s, supersuit "
-        f"{statistics.median(env['supersuit']):,.0f} agent-steps/s: {ratio:.2f}x"
+        f"{statistics.median(env['anonloc']):,.0f} robot-steps/s, supersuit "
+        f"{statistics.median(env['supersuit']):,.0f} robot-steps/s: {ratio:.2f}x"
     )
 
 

@@ -238,3 +238,24 @@ def test_a_saved_agent_is_a_policy(tmp_path: Path) -> None:
     other = anonloc_env.parallel_env(**{**SMALL, "n_robots": 5, "arena_size": (3.0, 3.0)})
     with pytest.raises(ValueError, match="trained on pictures of 3 rows"):
         baselines.make_team("agent", other, path=str(result.agent))
+
+
+def test_a_sampling_agent_draws_from_each_robots_own_generator(tmp_path: Path) -> None:
+    """deterministic=False samples with the team's per-robot generators: reproducible by seed."""
+    from agents.policy import LearnedExcitation, load_model
+
+    result = train(_config(tmp_path))
+    env = anonloc_env.parallel_env(**SMALL)
+    model = load_model(result.agent)
+
+    def play(seed: int) -> list[int]:
+        from baselines.localizers import BayesLocalizer
+        from baselines.policies import Team
+
+        excitation = LearnedExcitation(model, env.config, deterministic=False)
+        team = Team(env.config, BayesLocalizer(env.config, 3), excitation)
+        outcome = run_episode(env, team, seed=0, policy_seed=seed)
+        return [r.estimate for r in outcome.records] + [round(float(env.state().sum()), 9)]
+
+    assert play(1) == play(1)
+    assert play(1) != play(2)

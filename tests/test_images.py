@@ -27,8 +27,10 @@ from tests.helpers import rollout
 def _config(
     preset: str = "default", n: int | None = None, **camera: object
 ) -> anonloc_env.EnvConfig:
-    """``preset`` with the image source (and ``n`` robots: a picture holds at most that many)."""
-    more = {} if n is None else {"n_robots": n}
+    """``preset`` with the image source (and ``n`` robots in the preset's own arena: a picture
+    holds at most that many)."""
+    arena = anonloc_env.PRESETS[preset].arena_size
+    more = {} if n is None else {"n_robots": n, "arena_size": arena}
     return anonloc_env.make_config(preset, camera={"source": "image", **camera}, **more)
 
 

@@ -18,6 +18,7 @@ cv2 = pytest.importorskip("cv2", reason="anonloc detect needs the images extra (
 
 CAMERA_TOML = """\
 preset = "paper-angular"
+n_robots = 6
 [camera]
 source = "image"
 tilt_deg = 10.0
