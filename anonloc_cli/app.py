@@ -440,6 +440,10 @@ def train(
     name: Annotated[
         str | None, typer.Option(help="Run name (default: scenario-condition-ppo-...-time).")
     ] = None,
+    minutes: Annotated[
+        float | None,
+        typer.Option(min=0.01, help="Wall-clock budget: stop and save after this many minutes."),
+    ] = None,
     resume: Annotated[
         Path | None,
         typer.Option(help="Continue this run folder from its newest checkpoint instead."),
@@ -467,6 +471,7 @@ def train(
             n_envs=n_envs,
             seed=seed,
             name=name,
+            minutes=minutes,
             resume=resume,
             quiet=quiet,
         )

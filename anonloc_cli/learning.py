@@ -44,6 +44,7 @@ def train(
     n_envs: int,
     seed: int,
     name: str | None,
+    minutes: float | None,
     resume: Path | None,
     quiet: bool,
 ) -> int:
@@ -72,6 +73,7 @@ def train(
                 seed=seed,
                 out=str(out),
                 name=name,
+                minutes=minutes,
                 progress=not quiet,
             )
             result = module.train(config)
