@@ -1,6 +1,6 @@
 """The robots of one env driven by one shared learning policy: conditions, commands, rewards.
 
-A :class:`Crew` owns one :class:`~anonloc_env.env.AnonLocEnv` and a :class:`baselines.Team`
+A :class:`Crew` owns one ``anonloc_env.env.AnonLocEnv`` and a ``baselines.Team``
 whose localizer is every robot's own ``bayes`` identifier. The policy decides at every picture:
 its action ``(v / v_max, w / omega_max)`` is held until the next picture (:class:`HeldCommands`,
 which also reverses out of bumps), so one decision is one picture interval. The action becomes
@@ -8,7 +8,7 @@ the commands through the condition's excitation (:func:`condition_excitation`): 
 motion the held action is the command; on ``swarm`` duty every robot follows one shared command
 stream and the held action is only a deviation of at most ``budget`` of the robot's limits. The
 crew returns the policy observations of :mod:`agents.observation` and the reward of
-:meth:`Crew.step`.
+``Crew.step``.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ LOG_BELIEF_FLOOR = 1e-3
 
 class HeldCommands(BackOff):
     """The policy's command, held from one picture to the next, with a reflex: after a bump the
-    robot reverses out of it (:class:`baselines.excitations.BackOff`) and then resumes the
+    robot reverses out of it (``baselines.excitations.BackOff``) and then resumes the
     command.
 
     The policy decides once per picture: between two pictures nothing new is learnt about the
@@ -74,7 +74,7 @@ def condition_excitation(
 ) -> Excitation:
     """The excitation of a condition: ``own`` itself (``free``), or ``own`` as the bounded
     deviation from a shared command stream (``swarm``, see
-    :class:`baselines.excitations.SwarmDuty`)."""
+    ``baselines.excitations.SwarmDuty``)."""
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
     if condition == "free":

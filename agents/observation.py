@@ -142,7 +142,7 @@ class BeliefObserver:
         """The robots' observation at ``step`` (after :meth:`on_picture` at a new picture).
 
         Args:
-            step: the robots' step (see :func:`baselines.observations.read_step`).
+            step: the robots' step (see ``baselines.observations.read_step``).
             first: the step is the episode's first (the reset), whatever it holds.
         """
         if first or step.new_picture:

@@ -14,7 +14,7 @@ Choices, checked against Ray 2.60:
   step is cheaper than RLlib's ``FlattenObservations`` connector, which flattens every agent's
   dict separately in Python, and the learner then sees exactly what the env runner saw.
 * **Rendering.** ``ParallelPettingZooEnv.render`` calls ``render(self.render_mode)``;
-  :meth:`BeliefParallelEnv.render` accepts that argument. Training never renders.
+  ``BeliefParallelEnv.render`` accepts that argument. Training never renders.
 * **Local sampling.** ``num_env_runners=0`` samples in the driver process (one env); raise it
   to sample on that many Ray workers (one env each), on this machine or a Ray cluster.
 

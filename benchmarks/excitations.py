@@ -19,8 +19,9 @@ Usage::
     python benchmarks/excitations.py --robots 10 100 --conditions free swarm --episodes 30
     python benchmarks/excitations.py --robots 10 --conditions free --agent runs/free-10/agent.zip
 
-``--agent PATH`` adds a saved learned agent (``agents``, the ``rl`` extra) as the excitation
-``agent`` (on swarm duty it is the deviation, as it was trained). To compare another excitation,
+``--agent PATH`` adds a saved learned agent (``agents``, the ``rl`` extra) as the excitations
+``agent`` (its mean action) and ``agent-sampled`` (its Gaussian sampled with each robot's own
+generator); on swarm duty it is the deviation, as it was trained. To compare another excitation,
 pass it to :func:`run` in ``extra`` (name -> a function of the episode seed returning the
 ``Excitation``).
 """
@@ -76,15 +77,17 @@ def run(
     pictures: int,
     budget: float = 0.2,
     extra: Mapping[str, Callable[[int], Excitation]] | None = None,
+    first_seed: int = 0,
 ) -> dict[str, tuple[IdentificationSummary, float]]:
-    """Each excitation's summary (and wall time, s) on the same ``episodes`` seeds."""
+    """Each excitation's summary (and wall time, s) on the same ``episodes`` seeds (from
+    ``first_seed``)."""
     config = scenario(n, pictures)
     env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
     out = {}
     for name in names:
         start = time.perf_counter()
         results = []
-        for seed in range(episodes):
+        for seed in range(first_seed, first_seed + episodes):
             team = baselines.make_team(
                 "bayes", env, excitation=excitation(name, condition, seed, budget, extra or {})
             )
@@ -102,6 +105,7 @@ def main() -> None:
     parser.add_argument("--pictures", type=int, default=40, help="episode length (pictures)")
     parser.add_argument("--budget", type=float, default=0.2, help="swarm deviation budget")
     parser.add_argument("--agent", help="a saved agent (agent.zip) to add as 'agent'")
+    parser.add_argument("--first-seed", type=int, default=0, help="seeds first..first+episodes")
     args = parser.parse_args()
     names = list(args.excitations)
     extra: dict[str, Callable[[int], Excitation]] = {}
@@ -109,7 +113,7 @@ def main() -> None:
         from agents.policy import LearnedExcitation, load_model
 
         model = load_model(args.agent)
-        names.insert(0, "agent")
+        names[:0] = ["agent", "agent-sampled"]
     print(
         "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) | s |"
     )
@@ -119,7 +123,13 @@ def main() -> None:
             if args.agent:
                 config = scenario(n, args.pictures)
                 extra["agent"] = lambda seed, config=config: LearnedExcitation(model, config)
-            table = run(n, condition, names, args.episodes, args.pictures, args.budget, extra)
+                extra["agent-sampled"] = lambda seed, config=config: LearnedExcitation(
+                    model, config, deterministic=False
+                )
+            table = run(
+                n, condition, names, args.episodes, args.pictures, args.budget, extra,
+                args.first_seed,
+            )  # fmt: skip
             for name, (s, seconds) in table.items():
                 print(
                     f"| {n} | {condition} | {name} | {s.identified}/{s.episodes} | {s.pictures} "
