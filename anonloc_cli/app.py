@@ -345,7 +345,7 @@ def render(
 ) -> None:
     """Play a scenario with a policy and write a GIF or MP4 showing each robot's current guess.
 
-    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    Needs pygame-ce (in the cli extra); --human needs a display.
     """
     with _command(verbose):
         from anonloc_cli import policies, scenarios
@@ -394,25 +394,36 @@ def detect(
 
 @app.command()
 def frame(
-    out: Annotated[Path, typer.Option(help="The PNG to write.")] = Path("frame.png"),
-    preset: Annotated[str, typer.Option(help="A preset.")] = "default",
+    out: Annotated[Path, typer.Option(help="The PNG to write.")],
+    scenario: Annotated[
+        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
+    ] = "default",
+    policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
-    steps: Annotated[int, typer.Option(min=0, help="Random steps before the frame.")] = 100,
+    steps: Annotated[int, typer.Option(min=0, help="Control steps before the frame.")] = 100,
+    set_: Sets = None,
+    preset: Annotated[
+        str | None, typer.Option(hidden=True, help="Deprecated: use --scenario.")
+    ] = None,
     quiet: Quiet = False,
     verbose: Verbose = 0,
 ) -> None:
-    """One rendered frame after a short seeded random rollout (the former python -m anonloc_env).
+    """One rendered frame: a scenario played for --steps control steps, each robot's guess drawn.
 
-    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    Needs pygame-ce (in the cli extra).
     """
     with _command(verbose):
-        from anonloc_cli import scenarios
-        from anonloc_env.demo import demo
+        from anonloc_cli import policies, scenarios
+        from anonloc_cli import render as command
 
-        scenarios.check_preset(preset)
-        status = demo(
-            ["--preset", preset, "--seed", str(seed), "--steps", str(steps), "--out", str(out)]
-        )
+        if preset is not None:
+            typer.echo("Warning: --preset is deprecated; use --scenario", err=True)
+            scenario = preset
+        command.check_png(out)
+        resolved = scenarios.resolve(scenario, set_ or [])
+        name = policies.check_policy(policy)
+        policies.check_team(name, resolved.config, mode="corrected")
+        status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)
     raise typer.Exit(status)
 
 

@@ -8,11 +8,11 @@ Excitations are resolved here too: the names of :data:`baselines.excitations.EXC
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Sequence
 from typing import Any
 
 from anonloc_cli.scenarios import InputError
+from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
 
 MODES = ("corrected", "faithful")
@@ -50,9 +50,7 @@ def check_mode(mode: str) -> str:
 def _check(what: str, name: str, valid: Sequence[str]) -> str:
     if name in valid:
         return name
-    close = difflib.get_close_matches(name, list(valid), n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    raise InputError(f"unknown {what} {name!r}{hint}; valid: {list(valid)}")
+    raise InputError(f"unknown {what} {name!r}{did_you_mean(name, valid)}; valid: {list(valid)}")
 
 
 def excitation(spec: Any, seed: int) -> Any:

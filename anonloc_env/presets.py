@@ -15,11 +15,11 @@ only in their detector noise: the motion experiment's robots move fast.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Mapping
 from typing import Any
 
+from anonloc_env._checks import did_you_mean
 from anonloc_env.config import (
     CameraConfig,
     EnvConfig,
@@ -120,7 +120,9 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
         )
     name = "default" if preset is None else preset
     if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}{_hint(name, PRESETS)}; valid: {list(PRESETS)}")
+        raise ValueError(
+            f"unknown preset {name!r}{did_you_mean(name, PRESETS)}; valid: {list(PRESETS)}"
+        )
     base = PRESETS[name]
     top_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     valid = sorted(top_fields | set(_SHORTCUTS))
@@ -150,7 +152,7 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
         elif key in top_fields:
             changes[key] = value
         else:
-            raise ValueError(f"unknown override {key!r}{_hint(key, valid)}; valid: {valid}")
+            raise ValueError(f"unknown override {key!r}{did_you_mean(key, valid)}; valid: {valid}")
     for section, fields in sections.items():
         current = changes.get(section, getattr(base, section))
         changes[section] = replace_fields(current, section, fields)
@@ -179,7 +181,8 @@ def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:
     for key in fields:
         if key not in valid:
             raise ValueError(
-                f"unknown field {prefix}.{key}{_hint(key, valid)}; valid {prefix} fields: {valid}"
+                f"unknown field {prefix}.{key}{did_you_mean(key, valid)}; "
+                f"valid {prefix} fields: {valid}"
             )
     return dataclasses.replace(obj, **fields)
 
@@ -187,8 +190,3 @@ def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:
 def config_to_dict(config: EnvConfig) -> dict[str, Any]:
     """The config as plain nested dicts and lists, e.g. to record it next to results."""
     return dataclasses.asdict(config)
-
-
-def _hint(name: str, choices: Any) -> str:
-    close = difflib.get_close_matches(name, list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
