@@ -33,6 +33,7 @@ def success(env, team, seeds, **kwargs) -> tuple[float, int]:
     return right / total, undecided
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("name", "preset"),
     [
@@ -54,6 +55,7 @@ def test_noise_free_two_robots_corrected_methods_are_always_right(name: str, pre
     assert undecided == 0
 
 
+@pytest.mark.slow
 def test_faithful_angular_fails_on_shuffled_pictures_even_without_noise() -> None:
     """The paper's Algorithm 1 pairs rows by index; our pictures are shuffled, so about half of
     its pairings are of two different robots."""
@@ -63,6 +65,7 @@ def test_faithful_angular_fails_on_shuffled_pictures_even_without_noise() -> Non
     assert 0.55 < rate < 0.9  # 200 runs, 400 decisions: far from the corrected 100 %
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("preset", "excitation"),
     [("paper-angular", "angular"), ("paper-linear", "linear"), ("paper-motion", "motion")],

@@ -44,10 +44,15 @@ def test_python_m_anonloc_cli_and_anonloc_env_run_the_cli() -> None:
         assert "bench" in done.stdout
 
 
-def test_python_m_anonloc_env_frame_writes_a_png_quietly(tmp_path: Path) -> None:
+def test_python_m_anonloc_env_frame_writes_a_png_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     pytest.importorskip("pygame", reason="the frame needs pygame-ce")
+    for name in ("SDL_VIDEODRIVER", "SDL_AUDIODRIVER", "XDG_RUNTIME_DIR", "DISPLAY"):
+        monkeypatch.delenv(name, raising=False)  # a headless machine, as a user has it
     out = tmp_path / "f.png"
-    done = run_module("frame", "--out", out, "--steps", "5", "--quiet", module="anonloc_env")
+    args = ("frame", "--out", out, "--steps", "5", "--quiet")
+    done = run_module(*args, module="anonloc_env", sdl_dummy=False)
     assert done.returncode == 0, done.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert str(out.resolve()) in done.stdout  # it says where it wrote
