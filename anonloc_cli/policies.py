@@ -15,8 +15,6 @@ from anonloc_cli.scenarios import InputError
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
 
-MODES = ("corrected", "faithful")
-
 
 def policy_names() -> list[str]:
     """The valid policy names."""
@@ -43,8 +41,10 @@ def check_excitation(name: str | None) -> str | None:
 
 
 def check_mode(mode: str) -> str:
-    """``mode`` if it is ``corrected`` or ``faithful``."""
-    return _check("mode", mode, list(MODES))
+    """``mode`` if it is one of :data:`baselines.localizers.MODES`, else an :class:`InputError`."""
+    from baselines.localizers import MODES
+
+    return _check("mode", mode, MODES)
 
 
 def _check(what: str, name: str, valid: Sequence[str]) -> str:

@@ -21,21 +21,12 @@ from typing import Any
 
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import (
+    SECTIONS,
     CameraConfig,
     EnvConfig,
-    ObservationConfig,
-    RewardConfig,
     RobotConfig,
     ScheduleConfig,
 )
-
-_SECTION_TYPES: dict[str, type] = {
-    "robot": RobotConfig,
-    "camera": CameraConfig,
-    "schedule": ScheduleConfig,
-    "observation": ObservationConfig,
-    "reward": RewardConfig,
-}
 
 #: Shortcuts accepted at the top level, mapped to (section, field).
 _SHORTCUTS = {"picture_interval": ("schedule", "picture_interval")}
@@ -132,8 +123,8 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
         if key in _SHORTCUTS:
             section, field_name = _SHORTCUTS[key]
             sections.setdefault(section, {})[field_name] = value
-        elif key in _SECTION_TYPES:
-            if isinstance(value, _SECTION_TYPES[key]):
+        elif key in SECTIONS:
+            if isinstance(value, SECTIONS[key]):
                 changes[key] = value
             elif isinstance(value, Mapping):
                 merged = sections.setdefault(key, {})
@@ -146,7 +137,7 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
                     merged[field_name] = field_value
             else:
                 raise TypeError(
-                    f"{key} must be a dict of fields or a {_SECTION_TYPES[key].__name__}, "
+                    f"{key} must be a dict of fields or a {SECTIONS[key].__name__}, "
                     f"got {type(value).__name__}"
                 )
         elif key in top_fields:

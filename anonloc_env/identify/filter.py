@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 
-from anonloc_env.camera import Picture
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
@@ -462,12 +461,3 @@ class Identifier:
     def missing(self) -> np.ndarray:
         """``(R,)`` probability that robot i is not in the newest picture."""
         return self._missing
-
-    def n_tracks(self) -> np.ndarray:
-        """``(R,)`` explicit hypotheses kept per robot (a measure of ambiguity and cost)."""
-        return np.bincount(self.tracks.slot, minlength=self.n)
-
-
-def picture_rows(picture: Picture) -> np.ndarray:
-    """The ``(n, 3)`` detection rows of a picture."""
-    return picture.detections
