@@ -21,6 +21,7 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
     sys.stderr.write("anonloc: the command line needs its extra: pip install 'anonloc[cli]'\n")
     raise SystemExit(1) from None
 
+from anonloc_cli.jobs import RunOptions  # a dataclass; jobs imports nothing heavy at the top
 from anonloc_cli.sweeps import DEFAULT_SEEDS, SWEEPS  # plain data, nothing heavy
 
 app = typer.Typer(
@@ -121,8 +122,11 @@ def _command(verbose: int) -> Iterator[None]:
         raise typer.Exit(130) from None
 
 
-def _check_address(backend: Backend, address: str | None) -> None:
-    """Checked before any work: a wrong backend must not leave an empty store behind."""
+def _run_options(
+    backend: Backend, address: str | None, workers: int | None, quiet: bool
+) -> RunOptions:
+    """The shared run options, checked before any work: a wrong backend must not leave an empty
+    store behind."""
     import importlib.util
 
     from anonloc_cli.scenarios import InputError
@@ -131,6 +135,7 @@ def _check_address(backend: Backend, address: str | None) -> None:
         raise InputError("--address only applies to --backend ray")
     if backend is Backend.ray and importlib.util.find_spec("ray") is None:
         raise InputError("--backend ray needs Ray: pip install 'anonloc[ray]'")
+    return RunOptions(backend=backend.value, address=address, workers=workers, quiet=quiet)
 
 
 def _check_out(out: Path, *, folder: bool) -> None:
@@ -183,15 +188,13 @@ def reproduce(
     and robot) and the resumable store OUT/reproduce.jsonl: run it again to resume.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=True)
         from anonloc_cli import reproduce as command
         from baselines.paper import EXPERIMENTS
 
         counts = {m: (e.runs if runs is None else runs) for m, e in EXPERIMENTS.items()}
-        status = command.main(
-            counts, out, backend=backend.value, address=address, workers=workers, quiet=quiet
-        )
+        status = command.main(counts, out, run)
     raise typer.Exit(status)
 
 
@@ -241,7 +244,7 @@ def bench(
     store OUT's .units.jsonl: run it again to resume.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=False)
         from anonloc_cli import bench as command
         from anonloc_cli import policies, scenarios
@@ -261,10 +264,7 @@ def bench(
             out,
             mode=mode,
             pictures=pictures,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 
@@ -296,7 +296,7 @@ def study(
     resumable store OUT/study.jsonl: run it again to resume (or with more --seeds to add episodes).
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=True)
         from anonloc_cli import study as command
 
@@ -305,10 +305,7 @@ def study(
             sweep or [],
             out,
             seeds=seeds or DEFAULT_SEEDS,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 
@@ -510,7 +507,7 @@ def evaluate(
     Loading an agent unpickles parts of its file (SB3): only load files you trust.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         from anonloc_cli import learning
 
         status = learning.evaluate(
@@ -521,10 +518,7 @@ def evaluate(
             sets=set_ or [],
             against=against or [],
             pictures=pictures,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 
