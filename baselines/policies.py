@@ -116,9 +116,8 @@ class Team:
 
     def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
         """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
+        self.excitation.on_observations(observations)
         step = self.observe(observations)
-        if hasattr(self.excitation, "observations"):  # a policy as excitation needs them
-            self.excitation.observations = list(observations)
         v, w = self.excitation.commands(step, self.config.dt)
         actions = to_actions(v, w, self.config.robot)
         self.commanded(actions)
