@@ -47,13 +47,19 @@ def _import_pygame() -> Any:
 
 
 def _open_window(pg: Any, size: tuple[int, int]) -> Any:
-    """A window, or a :class:`RuntimeError` where there is no display to show it on."""
-    headless = sys.platform.startswith("linux") and not (
-        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    """A window, or a :class:`RuntimeError` where there is no display to show it on.
+
+    A video driver chosen explicitly (``SDL_VIDEODRIVER``, e.g. ``dummy`` in tests) is honoured.
+    """
+    chosen = bool(os.environ.get("SDL_VIDEODRIVER"))
+    headless = (
+        not chosen
+        and sys.platform.startswith("linux")
+        and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     )
     if not headless:
         pg.display.init()
-    if headless or pg.display.get_driver() in ("offscreen", "dummy"):
+    if headless or (not chosen and pg.display.get_driver() in ("offscreen", "dummy")):
         pg.display.quit()
         raise RuntimeError(
             "render_mode='human' needs a display, and none was found (no DISPLAY or "

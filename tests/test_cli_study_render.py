@@ -95,6 +95,7 @@ def test_render_human_without_a_display_fails_clearly(monkeypatch: pytest.Monkey
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.delenv("SDL_VIDEODRIVER", raising=False)  # as a user has it (not the tests' dummy)
     result = invoke("render", "--human", "--steps", "2", "--quiet")
     assert result.exit_code == 2
     assert "--human needs a display" in result.output
