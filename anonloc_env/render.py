@@ -47,7 +47,7 @@ def _import_pygame() -> Any:
 
 
 def _open_window(pg: Any, size: tuple[int, int]) -> Any:
-    """A window, or a :class:`RuntimeError` where there is no display to show it on.
+    """A window, or a ``RuntimeError`` where there is no display to show it on.
 
     A video driver chosen explicitly (``SDL_VIDEODRIVER``, e.g. ``dummy`` in tests) is honoured.
     """

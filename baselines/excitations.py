@@ -303,7 +303,7 @@ class SwarmDuty(Excitation):
     The shared stream is :class:`SwarmMotion` with jitter 0 (identical commands for all robots,
     each still turning away after a bump). The robot's own motion comes from ``deviation``, any
     excitation (or a learned policy), scaled by ``budget``, which is told the shared command and
-    the budget before each step (:meth:`Excitation.follow`)::
+    the budget before each step (:meth:`~baselines.excitations.Excitation.follow`)::
 
         v = v_shared + budget * v_own,   w = w_shared + budget * w_own
 

@@ -87,7 +87,7 @@ class RunOutcome:
 
 def run(method: str, seed: int, overrides: dict[str, Any] | None = None) -> RunOutcome:
     """One run of experiment ``method`` with episode seed ``seed``; ``overrides`` (keyword
-    overrides of :func:`anonloc_env.make_config`, e.g. ``{"camera": {"source": "image"}}``)
+    overrides of ``anonloc_env.make_config``, e.g. ``{"camera": {"source": "image"}}``)
     change the preset."""
     if method not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {method!r}; valid: {list(EXPERIMENTS)}")

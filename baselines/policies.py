@@ -93,7 +93,8 @@ class Team:
 
     def observe(self, observations: Sequence[Mapping[str, Any]]) -> Step:
         """Take in one step of the robots' observations (in robot order): the motion log and, at
-        a new picture, every localizer and then the excitation's :meth:`~Excitation.on_picture`.
+        a new picture, every localizer and then the excitation's
+        :meth:`~baselines.excitations.Excitation.on_picture`.
         """
         step = read_step(observations)
         interval = self.log.observe(step)
