@@ -7,7 +7,6 @@ imports what it needs when it runs.
 from __future__ import annotations
 
 import contextlib
-import logging
 import sys
 from collections.abc import Iterator
 from enum import Enum
@@ -22,9 +21,8 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
     sys.stderr.write("anonloc: the command line needs its extra: pip install 'anonloc[cli]'\n")
     raise SystemExit(1) from None
 
+from anonloc_cli.jobs import RunOptions  # a dataclass; jobs imports nothing heavy at the top
 from anonloc_cli.sweeps import DEFAULT_SEEDS, SWEEPS  # plain data, nothing heavy
-
-log = logging.getLogger("anonloc_cli")
 
 app = typer.Typer(
     name="anonloc",
@@ -44,13 +42,6 @@ class Backend(str, Enum):
 
     process = "process"
     ray = "ray"
-
-
-class Mode(str, Enum):
-    """Which version of the paper's methods."""
-
-    corrected = "corrected"
-    faithful = "faithful"
 
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
@@ -131,8 +122,11 @@ def _command(verbose: int) -> Iterator[None]:
         raise typer.Exit(130) from None
 
 
-def _check_address(backend: Backend, address: str | None) -> None:
-    """Checked before any work: a wrong backend must not leave an empty store behind."""
+def _run_options(
+    backend: Backend, address: str | None, workers: int | None, quiet: bool
+) -> RunOptions:
+    """The shared run options, checked before any work: a wrong backend must not leave an empty
+    store behind."""
     import importlib.util
 
     from anonloc_cli.scenarios import InputError
@@ -141,6 +135,7 @@ def _check_address(backend: Backend, address: str | None) -> None:
         raise InputError("--address only applies to --backend ray")
     if backend is Backend.ray and importlib.util.find_spec("ray") is None:
         raise InputError("--backend ray needs Ray: pip install 'anonloc[ray]'")
+    return RunOptions(backend=backend.value, address=address, workers=workers, quiet=quiet)
 
 
 def _check_out(out: Path, *, folder: bool) -> None:
@@ -193,15 +188,13 @@ def reproduce(
     and robot) and the resumable store OUT/reproduce.jsonl: run it again to resume.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=True)
         from anonloc_cli import reproduce as command
         from baselines.paper import EXPERIMENTS
 
         counts = {m: (e.runs if runs is None else runs) for m, e in EXPERIMENTS.items()}
-        status = command.main(
-            counts, out, backend=backend.value, address=address, workers=workers, quiet=quiet
-        )
+        status = command.main(counts, out, run)
     raise typer.Exit(status)
 
 
@@ -223,8 +216,8 @@ def bench(
     ],
     out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
     mode: Annotated[
-        Mode, typer.Option(help="The paper's methods as printed, or corrected.")
-    ] = Mode.corrected,
+        str, typer.Option(help="The paper's methods corrected, or faithful (as printed).")
+    ] = "corrected",
     excitation: Annotated[
         str | None,
         typer.Option(
@@ -251,29 +244,27 @@ def bench(
     store OUT's .units.jsonl: run it again to resume.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=False)
         from anonloc_cli import bench as command
         from anonloc_cli import policies, scenarios
 
         resolved = [scenarios.resolve(s, set_ or []) for s in scenario]
         names = [policies.check_policy(p) for p in policy]
+        policies.check_mode(mode)
         policies.check_excitation(excitation)
         for s in resolved:
             for name in names:
-                policies.check_team(name, s.config, mode=mode.value, excitation_spec=excitation)
+                policies.check_team(name, s.config, mode=mode, excitation_spec=excitation)
         entries = [command.Entry(name, name, excitation) for name in names]
         status = command.main(
             resolved,
             entries,
             seeds,
             out,
-            mode=mode.value,
+            mode=mode,
             pictures=pictures,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 
@@ -305,7 +296,7 @@ def study(
     resumable store OUT/study.jsonl: run it again to resume (or with more --seeds to add episodes).
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=True)
         from anonloc_cli import study as command
 
@@ -314,10 +305,7 @@ def study(
             sweep or [],
             out,
             seeds=seeds or DEFAULT_SEEDS,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 
@@ -345,7 +333,7 @@ def render(
 ) -> None:
     """Play a scenario with a policy and write a GIF or MP4 showing each robot's current guess.
 
-    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    Needs pygame-ce (in the cli extra); --human needs a display.
     """
     with _command(verbose):
         from anonloc_cli import policies, scenarios
@@ -394,25 +382,36 @@ def detect(
 
 @app.command()
 def frame(
-    out: Annotated[Path, typer.Option(help="The PNG to write.")] = Path("frame.png"),
-    preset: Annotated[str, typer.Option(help="A preset.")] = "default",
+    out: Annotated[Path, typer.Option(help="The PNG to write.")],
+    scenario: Annotated[
+        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
+    ] = "default",
+    policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
-    steps: Annotated[int, typer.Option(min=0, help="Random steps before the frame.")] = 100,
+    steps: Annotated[int, typer.Option(min=0, help="Control steps before the frame.")] = 100,
+    set_: Sets = None,
+    preset: Annotated[
+        str | None, typer.Option(hidden=True, help="Deprecated: use --scenario.")
+    ] = None,
     quiet: Quiet = False,
     verbose: Verbose = 0,
 ) -> None:
-    """One rendered frame after a short seeded random rollout (the former python -m anonloc_env).
+    """One rendered frame: a scenario played for --steps control steps, each robot's guess drawn.
 
-    Needs the render extra (pygame-ce): pip install 'anonloc[render]'.
+    Needs pygame-ce (in the cli extra).
     """
     with _command(verbose):
-        from anonloc_cli import scenarios
-        from anonloc_env.demo import demo
+        from anonloc_cli import policies, scenarios
+        from anonloc_cli import render as command
 
-        scenarios.check_preset(preset)
-        status = demo(
-            ["--preset", preset, "--seed", str(seed), "--steps", str(steps), "--out", str(out)]
-        )
+        if preset is not None:
+            typer.echo("Warning: --preset is deprecated; use --scenario", err=True)
+            scenario = preset
+        command.check_png(out)
+        resolved = scenarios.resolve(scenario, set_ or [])
+        name = policies.check_policy(policy)
+        policies.check_team(name, resolved.config, mode="corrected")
+        status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)
     raise typer.Exit(status)
 
 
@@ -513,7 +512,7 @@ def evaluate(
     Loading an agent unpickles parts of its file (SB3): only load files you trust.
     """
     with _command(verbose):
-        _check_address(backend, address)
+        run = _run_options(backend, address, workers, quiet)
         from anonloc_cli import learning
 
         status = learning.evaluate(
@@ -524,10 +523,7 @@ def evaluate(
             sets=set_ or [],
             against=against or [],
             pictures=pictures,
-            backend=backend.value,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            run=run,
         )
     raise typer.Exit(status)
 

@@ -37,7 +37,6 @@ from typing import Any
 import numpy as np
 
 from anonloc_cli import jobs, provenance, store, tables
-from anonloc_cli.console import echo
 from anonloc_cli.jobs import Unit
 from anonloc_cli.scenarios import Scenario
 from baselines.paper import Rate
@@ -254,10 +253,7 @@ def main(
     *,
     mode: str,
     pictures: int | None,
-    backend: str,
-    address: str | None,
-    workers: int | None,
-    quiet: bool,
+    run: jobs.RunOptions,
     identification: bool = False,
 ) -> int:
     """Run (or resume) the bench and write its rows and summary; the exit status.
@@ -271,15 +267,7 @@ def main(
     policies = [e.label for e in entries]
     excitations = sorted({e.excitation or "" for e in entries})
     excitation = excitations[0] or None if len(excitations) == 1 else ", ".join(excitations)
-    report, records = jobs.run_stored(
-        work,
-        store_path(out),
-        backend=backend,
-        address=address,
-        workers=workers,
-        quiet=quiet,
-        description="bench",
-    )
+    report, records = jobs.run_stored(work, store_path(out), run, description="bench")
     rows = [row for u in work if u.key in records for row in records[u.key]["result"]]
     record = provenance.provenance(
         {s.name: config_to_dict(s.config) for s in scenarios},
@@ -288,7 +276,7 @@ def main(
         mode=mode,
         excitation=excitation,
         pictures=pictures,
-        backend=backend,
+        backend=run.backend,
     )
     if out.suffix.lower() == ".parquet":
         store.write_parquet(out, rows, TYPES, record)
@@ -326,9 +314,5 @@ def main(
         ]
     text = "\n".join([*lines, provenance.markdown(record)])
     store.write_text(out.with_suffix(".md"), text)
-    echo(f"wrote {out} ({len(rows)} rows) and {out.with_suffix('.md')}")
-    echo(f"wall time: {wall:.1f} s ({report.ran} episodes executed, {report.skipped} reused)")
-    if report.failed:
-        echo(jobs.failed_message(report.failed, "episodes"), err=True)
-        return 1
-    return 0
+    wrote = f"{out} ({len(rows)} rows) and {out.with_suffix('.md')}"
+    return jobs.finish(report, wrote=wrote, what="episodes", seconds=wall)

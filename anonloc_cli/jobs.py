@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from anonloc_cli.console import progress
+from anonloc_cli.console import echo, progress
 from anonloc_cli.store import Store
 
 log = logging.getLogger(__name__)
@@ -361,15 +361,23 @@ def _run_ray(
     return failed
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """How a command runs its work units: the options ``reproduce``, ``bench``, ``study`` and
+    ``eval`` share (checked by the command line before any work)."""
+
+    backend: str = "process"
+    """``"process"`` (a local process pool) or ``"ray"`` (Ray tasks)."""
+    address: str | None = None
+    """With ``ray``: the cluster to join; None starts a local Ray instance."""
+    workers: int | None = None
+    """Parallel workers; None: one per core."""
+    quiet: bool = False
+    """No progress bar."""
+
+
 def run_stored(
-    units: Sequence[Unit],
-    path: Path,
-    *,
-    backend: str,
-    address: str | None,
-    workers: int | None,
-    quiet: bool,
-    description: str,
+    units: Sequence[Unit], path: Path, options: RunOptions, *, description: str
 ) -> tuple[Report, dict[str, Any]]:
     """Run (or resume) ``units`` into the store at ``path``; the report and every stored
     record by key (the ones of earlier runs included)."""
@@ -377,10 +385,21 @@ def run_stored(
         report = run_units(
             units,
             results,
-            backend=backend,
-            address=address,
-            workers=workers,
-            quiet=quiet,
+            backend=options.backend,
+            address=options.address,
+            workers=options.workers,
+            quiet=options.quiet,
             description=description,
         )
         return report, results.load()
+
+
+def finish(report: Report, *, wrote: str, what: str, seconds: float) -> int:
+    """The common end of a stored run: say what was written and how long it took, report the
+    units that failed; the exit status (1 if any failed, else 0)."""
+    echo(f"wrote {wrote}")
+    echo(f"wall time: {seconds:.1f} s ({report.ran} {what} executed, {report.skipped} reused)")
+    if report.failed:
+        echo(failed_message(report.failed, what), err=True)
+        return 1
+    return 0

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from anonloc_cli.console import echo
+from anonloc_cli.jobs import RunOptions
 from anonloc_cli.scenarios import InputError, Scenario
 
 
@@ -107,10 +108,7 @@ def evaluate(
     sets: Sequence[str],
     against: Sequence[str],
     pictures: int | None,
-    backend: str,
-    address: str | None,
-    workers: int | None,
-    quiet: bool,
+    run: RunOptions,
 ) -> int:
     """Evaluate ``agent`` and the ``against`` excitations; the exit status."""
     from anonloc_cli import bench, policies, scenarios
@@ -144,9 +142,6 @@ def evaluate(
         out,
         mode="corrected",
         pictures=pictures,
-        backend=backend,
-        address=address,
-        workers=workers,
-        quiet=quiet,
+        run=run,
         identification=True,
     )

@@ -64,7 +64,7 @@ def sweep(
             axis.set_xscale("log")
         elif definition.log_x:  # 0 among the points: linear up to the smallest positive one
             axis.set_xscale("symlog", linthresh=min(x for x in xs if x > 0))
-            axis.set_xlim(left=-0.1 * min(x for x in xs if x > 0))
+        _pad_x(axis, xs)
         axis.set_xticks(xs, [f"{x:g}" for x in xs])
         axis.minorticks_off()
         axis.grid(alpha=0.3)
@@ -92,6 +92,15 @@ def sweep(
         paths.append(path)
     plt.close(figure)
     return paths
+
+
+def _pad_x(axis: Any, xs: list[float], share: float = 0.05) -> None:
+    """Limits ``share`` of the axis wider than the points on each side, on the axis' own scale
+    (log, symlog or linear), so that the end tick labels stay inside the figure."""
+    forward = axis.xaxis.get_transform()
+    low, high = forward.transform([min(xs), max(xs)])
+    pad = share * (high - low) if high > low else 1.0
+    axis.set_xlim(*forward.inverted().transform([low - pad, high + pad]))
 
 
 def _line(

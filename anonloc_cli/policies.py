@@ -8,14 +8,12 @@ Excitations are resolved here too: the names of :data:`baselines.excitations.EXC
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Sequence
 from typing import Any
 
 from anonloc_cli.scenarios import InputError
+from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
-
-MODES = ("corrected", "faithful")
 
 
 def policy_names() -> list[str]:
@@ -43,16 +41,16 @@ def check_excitation(name: str | None) -> str | None:
 
 
 def check_mode(mode: str) -> str:
-    """``mode`` if it is ``corrected`` or ``faithful``."""
-    return _check("mode", mode, list(MODES))
+    """``mode`` if it is one of :data:`baselines.localizers.MODES`, else an :class:`InputError`."""
+    from baselines.localizers import MODES
+
+    return _check("mode", mode, MODES)
 
 
 def _check(what: str, name: str, valid: Sequence[str]) -> str:
     if name in valid:
         return name
-    close = difflib.get_close_matches(name, list(valid), n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    raise InputError(f"unknown {what} {name!r}{hint}; valid: {list(valid)}")
+    raise InputError(f"unknown {what} {name!r}{did_you_mean(name, valid)}; valid: {list(valid)}")
 
 
 def excitation(spec: Any, seed: int) -> Any:

@@ -1,14 +1,16 @@
-"""``anonloc render``: a scenario played by a team, as a GIF or MP4 (or live in a window).
+"""``anonloc render`` and ``anonloc frame``: a scenario played by a team, drawn.
 
 At every picture each robot's current estimate is handed to the env (``env.guesses``), so the
-frames show, for every robot, a line to the detection it believes is itself: green when right, red
-when wrong. Frames are taken every ``1 / fps`` seconds of simulated time and played back in real
-time.
+frames show every robot's guess: a green ring around the robot when it is right, a red ring on the
+detection it chose (joined to it by a red line) when it is wrong; a legend says so.
+``render`` takes a frame every ``1 / fps`` seconds of simulated time and writes a GIF or MP4 played
+back in real time (or shows a window); ``frame`` writes the last frame as a PNG.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +23,7 @@ SUFFIXES = (".gif", ".mp4")
 
 def check_output(out: Path | None, human: bool) -> None:
     """Refuse an output the writers cannot produce, before any work."""
+    check_pygame()
     if human:
         return
     if out is None:
@@ -35,10 +38,83 @@ def check_output(out: Path | None, human: bool) -> None:
         )
 
 
+def check_png(out: Path) -> None:
+    """Refuse a ``frame`` output that is not a PNG in an existing folder, before any work."""
+    check_pygame()
+    if out.suffix.lower() != ".png":
+        raise InputError(f"--out must end in .png, got {str(out)!r}")
+    if not out.parent.is_dir():
+        raise InputError(f"--out {out}: {out.parent} is not a folder")
+
+
+def check_pygame() -> None:
+    """One line, not a traceback, where the drawing library is missing."""
+    import importlib.util
+
+    if importlib.util.find_spec("pygame") is None:
+        raise InputError(
+            "drawing needs pygame-ce, which is not installed: pip install 'anonloc[cli]' "
+            "(or pip install pygame-ce)"
+        )
+
+
 def _ffmpeg_available() -> bool:
     import importlib.util
 
     return any(importlib.util.find_spec(name) for name in ("imageio_ffmpeg", "av"))
+
+
+def play(
+    scenario: Scenario,
+    policy: str,
+    *,
+    seed: int,
+    steps: int,
+    human: bool,
+    stride: int,
+    on_frame: Callable[[Any], None],
+    quiet: bool,
+) -> Any:
+    """Play ``steps`` control steps of ``scenario`` with ``policy`` on every robot.
+
+    Unless ``human``, a frame is drawn every ``stride`` control steps (from step 0) and at the
+    last step, each handed to ``on_frame``. Returns the closed env.
+
+    Raises:
+        InputError: ``human`` on a machine without a display.
+    """
+    import numpy as np
+
+    import anonloc_env
+    from anonloc_cli.policies import build_team
+
+    env = anonloc_env.parallel_env(**scenario.spec, render_mode="human" if human else "rgb_array")
+    team = build_team(policy, env.config, seed=seed)
+    agents = env.possible_agents
+    try:
+        observations, _ = env.reset(seed=seed)
+    except RuntimeError:  # the human window found no display
+        raise InputError(
+            "--human needs a display, and none was found; write a file instead (--out FILE.gif)"
+        ) from None
+    team.reset(np.random.SeedSequence(seed).spawn(len(agents)))  # as run_episode does
+    with progress(steps, "render", quiet=quiet, unit="step") as bar:
+        for step in range(steps + 1):
+            actions = team.act([observations[a] for a in agents])
+            if observations[agents[0]]["new_picture"][0] > 0.5:
+                env.guesses = {
+                    a: (int(e) if e >= 0 else None)
+                    for a, e in zip(agents, team.estimates(), strict=True)
+                }
+            last = step == steps or not env.agents
+            if not human and (step % stride == 0 or last):
+                on_frame(env.render())
+            if last:
+                break
+            observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
+            bar.update()
+    env.close()
+    return env
 
 
 def main(
@@ -53,39 +129,49 @@ def main(
     quiet: bool,
 ) -> int:
     """Play ``steps`` control steps and write the frames to ``out`` (or show them)."""
-    import numpy as np
-
-    import anonloc_env
-    from anonloc_cli.policies import build_team
-
-    env = anonloc_env.parallel_env(**scenario.spec, render_mode="human" if human else "rgb_array")
-    team = build_team(policy, env.config, seed=seed)
-    agents = env.possible_agents
-    observations, _ = env.reset(seed=seed)
-    team.reset(np.random.SeedSequence(seed).spawn(len(agents)))  # as run_episode does
-    stride = max(1, round(1.0 / (fps * env.config.dt)))
     frames: list[Any] = []
-    with progress(steps, "render", quiet=quiet, unit="step") as bar:
-        for step in range(steps + 1):
-            actions = team.act([observations[a] for a in agents])
-            if observations[agents[0]]["new_picture"][0] > 0.5:
-                env.guesses = {
-                    a: (int(e) if e >= 0 else None)
-                    for a, e in zip(agents, team.estimates(), strict=True)
-                }
-            if not human and step % stride == 0:
-                frames.append(env.render())
-            if step == steps or not env.agents:
-                break
-            observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
-            bar.update()
-    env.close()
+    dt = scenario.config.dt
+    stride = max(1, round(1.0 / (fps * dt)))
+    play(
+        scenario,
+        policy,
+        seed=seed,
+        steps=steps,
+        human=human,
+        stride=stride,
+        on_frame=frames.append,
+        quiet=quiet,
+    )
     if human:
         return 0
     assert out is not None
-    _write(out, frames, fps=1.0 / (stride * env.config.dt))
-    seconds = len(frames) * stride * env.config.dt
+    _write(out, frames, fps=1.0 / (stride * dt))
+    seconds = len(frames) * stride * dt
     echo(f"wrote {out}: {len(frames)} frames, {seconds:.1f} s of {scenario.name} with {policy}")
+    return 0
+
+
+def frame(scenario: Scenario, policy: str, *, out: Path, seed: int, steps: int, quiet: bool) -> int:
+    """Play ``steps`` control steps and write the last frame to ``out`` (a PNG)."""
+    import imageio.v3 as iio
+
+    frames: list[Any] = []
+    env = play(
+        scenario,
+        policy,
+        seed=seed,
+        steps=steps,
+        human=False,
+        stride=steps + 1,  # only the first and the last; the last one is kept
+        on_frame=frames.append,
+        quiet=quiet,
+    )
+    with store.atomic_path(out) as tmp:
+        iio.imwrite(tmp, frames[-1], extension=".png")
+    echo(
+        f"wrote {out.resolve()}: {scenario.name} with {policy} after {env.steps} steps, "
+        f"{env.pictures_taken} pictures"
+    )
     return 0
 
 

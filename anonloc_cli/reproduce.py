@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 from anonloc_cli import jobs, provenance, store, tables
-from anonloc_cli.console import echo
 from anonloc_cli.jobs import Unit
 from baselines.paper import EXPERIMENTS, RunOutcome, summarise
 
@@ -133,11 +132,7 @@ def csv_rows(outcomes: dict[str, list[RunOutcome]]) -> list[dict[str, Any]]:
 def main(
     runs: dict[str, int],
     out: Path,
-    *,
-    backend: str,
-    address: str | None,
-    workers: int | None,
-    quiet: bool,
+    run: jobs.RunOptions,
 ) -> int:
     """Run (or resume) the paper's experiments and write the table; the exit status."""
     import anonloc_env
@@ -145,15 +140,7 @@ def main(
 
     start = time.perf_counter()
     work = units(runs)
-    report, records = jobs.run_stored(
-        work,
-        out / "reproduce.jsonl",
-        backend=backend,
-        address=address,
-        workers=workers,
-        quiet=quiet,
-        description="reproduce",
-    )
+    report, records = jobs.run_stored(work, out / "reproduce.jsonl", run, description="reproduce")
     outcomes: dict[str, list[RunOutcome]] = {m: [] for m in METHODS}
     for unit in work:
         if unit.key in records:
@@ -170,7 +157,7 @@ def main(
     record = provenance.provenance(
         configs,
         runs=runs,
-        backend=backend,
+        backend=run.backend,
         units_run=report.ran,
         units_reused=report.skipped,
         wall_time_s=round(wall, 1),
@@ -197,9 +184,5 @@ def main(
     store.write_text(out / "reproduce.md", text)
     store.write_csv(out / "reproduce.csv", csv_rows(outcomes), CSV_COLUMNS)
     store.write_json(store.meta_path(out / "reproduce.csv"), record)
-    echo(f"wrote {out / 'reproduce.md'} and {out / 'reproduce.csv'}")
-    echo(f"wall time: {wall:.1f} s ({report.ran} runs executed, {report.skipped} reused)")
-    if report.failed:
-        echo(jobs.failed_message(report.failed, "runs"), err=True)
-        return 1
-    return 0
+    wrote = f"{out / 'reproduce.md'} and {out / 'reproduce.csv'}"
+    return jobs.finish(report, wrote=wrote, what="runs", seconds=wall)

@@ -16,7 +16,6 @@ names or the accepted range).
 from __future__ import annotations
 
 import ast
-import difflib
 import json
 import sys
 from collections.abc import Mapping, Sequence
@@ -24,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
 
 SCENARIO_SUFFIXES = (".toml", ".yaml", ".yml")
@@ -64,10 +64,8 @@ def resolve(text: str, sets: Sequence[str] = ()) -> Scenario:
     elif Path(text).suffix.lower() in SCENARIO_SUFFIXES:
         name, spec = Path(text).stem, read_file(Path(text))
     else:
-        close = difflib.get_close_matches(text, presets, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise InputError(
-            f"unknown scenario {text!r}{hint}; valid: a preset {presets} "
+            f"unknown scenario {text!r}{did_you_mean(text, presets)}; valid: a preset {presets} "
             f"or a scenario file ending in {', '.join(SCENARIO_SUFFIXES)}"
         )
     return build(name, apply_sets(spec, sets))
@@ -79,17 +77,6 @@ def apply_sets(spec: dict[str, Any], sets: Sequence[str]) -> dict[str, Any]:
         key, value = parse_set(item)
         _merge(spec, key.split("."), value)
     return spec
-
-
-def check_preset(name: str) -> str:
-    """``name`` if it is a preset, else an :class:`InputError` listing them."""
-    from anonloc_env.presets import preset_names
-
-    if name not in preset_names():
-        close = difflib.get_close_matches(name, preset_names(), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"unknown preset {name!r}{hint}; valid: {preset_names()}")
-    return name
 
 
 def build(name: str, spec: Mapping[str, Any]) -> Scenario:

@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any
 
 from anonloc_cli import jobs, plots, provenance, store, sweeps, tables
-from anonloc_cli.console import echo
 from anonloc_cli.jobs import Unit
 from anonloc_cli.scenarios import InputError
 from baselines.paper import Rate
@@ -195,36 +194,18 @@ def main(
     out: Path,
     *,
     seeds: int,
-    backend: str,
-    address: str | None,
-    workers: int | None,
-    quiet: bool,
+    run: jobs.RunOptions,
 ) -> int:
     """Run (or resume) the sweeps and write their plots and data; the exit status."""
     start = time.perf_counter()
     chosen = check_sweeps(names)
     work = {s.name: units(s, seeds) for s in chosen}  # every config is checked here
     everything = [u for s in chosen for u in work[s.name]]
-    report, records = jobs.run_stored(
-        everything,
-        out / "study.jsonl",
-        backend=backend,
-        address=address,
-        workers=workers,
-        quiet=quiet,
-        description="study",
-    )
+    report, records = jobs.run_stored(everything, out / "study.jsonl", run, description="study")
     for sweep in chosen:
-        _write(sweep, work[sweep.name], records, out, seeds=seeds, backend=backend)
-    sweeps_written = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''}"
-    echo(
-        f"wrote {sweeps_written} to {out} in {time.perf_counter() - start:.1f} s "
-        f"({report.ran} episodes executed, {report.skipped} reused)"
-    )
-    if report.failed:
-        echo(jobs.failed_message(report.failed, "episodes"), err=True)
-        return 1
-    return 0
+        _write(sweep, work[sweep.name], records, out, seeds=seeds, backend=run.backend)
+    wrote = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''} to {out}"
+    return jobs.finish(report, wrote=wrote, what="episodes", seconds=time.perf_counter() - start)
 
 
 def _write(

@@ -313,7 +313,7 @@ class EnvConfig:
         object.__setattr__(self, "dt", float(self.dt))
         check_number("max_cycles", self.max_cycles, 1, integer=True)
         object.__setattr__(self, "max_cycles", int(self.max_cycles))
-        for name, cls in _SECTIONS.items():
+        for name, cls in SECTIONS.items():
             if not isinstance(getattr(self, name), cls):
                 raise TypeError(
                     f"{name} must be a {cls.__name__} (or a dict of its fields), "
@@ -371,7 +371,8 @@ class EnvConfig:
         return self.schedule.picture_interval / self.dt
 
 
-_SECTIONS = {
+#: The config's sections: the name of each nested field of :class:`EnvConfig` and its type.
+SECTIONS: dict[str, type] = {
     "robot": RobotConfig,
     "camera": CameraConfig,
     "schedule": ScheduleConfig,

@@ -15,27 +15,18 @@ only in their detector noise: the motion experiment's robots move fast.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Mapping
 from typing import Any
 
+from anonloc_env._checks import did_you_mean
 from anonloc_env.config import (
+    SECTIONS,
     CameraConfig,
     EnvConfig,
-    ObservationConfig,
-    RewardConfig,
     RobotConfig,
     ScheduleConfig,
 )
-
-_SECTION_TYPES: dict[str, type] = {
-    "robot": RobotConfig,
-    "camera": CameraConfig,
-    "schedule": ScheduleConfig,
-    "observation": ObservationConfig,
-    "reward": RewardConfig,
-}
 
 #: Shortcuts accepted at the top level, mapped to (section, field).
 _SHORTCUTS = {"picture_interval": ("schedule", "picture_interval")}
@@ -120,7 +111,9 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
         )
     name = "default" if preset is None else preset
     if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}{_hint(name, PRESETS)}; valid: {list(PRESETS)}")
+        raise ValueError(
+            f"unknown preset {name!r}{did_you_mean(name, PRESETS)}; valid: {list(PRESETS)}"
+        )
     base = PRESETS[name]
     top_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     valid = sorted(top_fields | set(_SHORTCUTS))
@@ -130,8 +123,8 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
         if key in _SHORTCUTS:
             section, field_name = _SHORTCUTS[key]
             sections.setdefault(section, {})[field_name] = value
-        elif key in _SECTION_TYPES:
-            if isinstance(value, _SECTION_TYPES[key]):
+        elif key in SECTIONS:
+            if isinstance(value, SECTIONS[key]):
                 changes[key] = value
             elif isinstance(value, Mapping):
                 merged = sections.setdefault(key, {})
@@ -144,13 +137,13 @@ def make_config(preset: str | None = None, **overrides: Any) -> EnvConfig:
                     merged[field_name] = field_value
             else:
                 raise TypeError(
-                    f"{key} must be a dict of fields or a {_SECTION_TYPES[key].__name__}, "
+                    f"{key} must be a dict of fields or a {SECTIONS[key].__name__}, "
                     f"got {type(value).__name__}"
                 )
         elif key in top_fields:
             changes[key] = value
         else:
-            raise ValueError(f"unknown override {key!r}{_hint(key, valid)}; valid: {valid}")
+            raise ValueError(f"unknown override {key!r}{did_you_mean(key, valid)}; valid: {valid}")
     for section, fields in sections.items():
         current = changes.get(section, getattr(base, section))
         changes[section] = replace_fields(current, section, fields)
@@ -179,7 +172,8 @@ def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:
     for key in fields:
         if key not in valid:
             raise ValueError(
-                f"unknown field {prefix}.{key}{_hint(key, valid)}; valid {prefix} fields: {valid}"
+                f"unknown field {prefix}.{key}{did_you_mean(key, valid)}; "
+                f"valid {prefix} fields: {valid}"
             )
     return dataclasses.replace(obj, **fields)
 
@@ -187,8 +181,3 @@ def replace_fields(obj: Any, prefix: str, fields: Mapping[str, Any]) -> Any:
 def config_to_dict(config: EnvConfig) -> dict[str, Any]:
     """The config as plain nested dicts and lists, e.g. to record it next to results."""
     return dataclasses.asdict(config)
-
-
-def _hint(name: str, choices: Any) -> str:
-    close = difflib.get_close_matches(name, list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""

@@ -1,16 +1,23 @@
 """Drawing with pygame-ce (an optional extra, imported only when rendering is asked for).
 
 The arena is drawn in world coordinates (y up). Robots are drawn with their heading; the newest
-picture's detections are mapped back to the ground through the camera and drawn as crosses; a
-robot's guess, when set, is a line from the robot to the detection it believes is itself, green
-when right and red when wrong. With the image source (``camera.source = "image"``) the camera's
-newest grayscale image is shown in the top-right corner (picture-in-picture).
+picture's detections are mapped back to the ground through the camera and drawn as grey crosses.
+A robot's guess (``env.guesses``), when set, is drawn so that right and wrong differ at a glance: a
+right guess is a green ring around the robot; a wrong one is a red ring around the detection it
+chose, joined to the robot by a red line. A legend at the bottom says so. With the image source
+(``camera.source = "image"``) the camera's newest grayscale image is shown in the top-right corner
+(picture-in-picture).
+
+Only the ``human`` mode opens a display; ``rgb_array`` draws off screen and never initialises SDL's
+video (so no display, and no message about one, is needed).
 """
 
 from __future__ import annotations
 
 import colorsys
 import math
+import os
+import sys
 from typing import Any
 
 import numpy as np
@@ -20,7 +27,13 @@ from anonloc_env.config import EnvConfig
 
 _WINDOW = 640  # pixels along the arena's longer side
 _MARGIN = 20
+_HEADER = 24  # pixels above the arena (the time label)
+_FOOTER = 26  # pixels below the arena (the legend)
 _INSET = 0.3  # side of the picture-in-picture, as a fraction of the window's width
+_RIGHT = (30, 160, 60)  # a right guess
+_WRONG = (210, 40, 40)  # a wrong guess
+_DETECTION = (90, 90, 90)
+_TEXT = (20, 20, 20)
 
 
 def _import_pygame() -> Any:
@@ -31,6 +44,30 @@ def _import_pygame() -> Any:
             "rendering needs pygame-ce: pip install 'anonloc[render]' (or pip install pygame-ce)"
         ) from error
     return pygame
+
+
+def _open_window(pg: Any, size: tuple[int, int]) -> Any:
+    """A window, or a ``RuntimeError`` where there is no display to show it on.
+
+    A video driver chosen explicitly (``SDL_VIDEODRIVER``, e.g. ``dummy`` in tests) is honoured.
+    """
+    chosen = bool(os.environ.get("SDL_VIDEODRIVER"))
+    headless = (
+        not chosen
+        and sys.platform.startswith("linux")
+        and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    )
+    if not headless:
+        pg.display.init()
+    if headless or (not chosen and pg.display.get_driver() in ("offscreen", "dummy")):
+        pg.display.quit()
+        raise RuntimeError(
+            "render_mode='human' needs a display, and none was found (no DISPLAY or "
+            "WAYLAND_DISPLAY); use render_mode='rgb_array' to get frames as arrays"
+        )
+    window = pg.display.set_mode(size)
+    pg.display.set_caption("anonloc")
+    return window
 
 
 class Renderer:
@@ -51,19 +88,18 @@ class Renderer:
         self.pixels_per_metre = (_WINDOW - 2 * _MARGIN) / max(width, height)
         self.size = (
             round(width * self.pixels_per_metre) + 2 * _MARGIN,
-            round(height * self.pixels_per_metre) + 2 * _MARGIN + 24,
+            round(height * self.pixels_per_metre) + 2 * _MARGIN + _HEADER + _FOOTER,
         )
         pg = self.pygame
-        pg.init()
+        pg.font.init()  # not pg.init(): rgb_array frames need no display, audio or events
         if mode == "human":
-            self.window = pg.display.set_mode(self.size)
-            pg.display.set_caption("anonloc")
+            self.window = _open_window(pg, self.size)
             self.clock = pg.time.Clock()
         self.surface = pg.Surface(self.size)
         self.font = pg.font.Font(None, 20)
         n = config.n_robots
         self.colors = [
-            tuple(int(255 * c) for c in colorsys.hsv_to_rgb(i / max(n, 1), 0.65, 0.85))
+            tuple(int(255 * c) for c in colorsys.hsv_to_rgb(i / max(n, 1), 0.45, 0.9))
             for i in range(n)
         ]
 
@@ -71,7 +107,7 @@ class Renderer:
         height = self.config.arena_size[1]
         screen = np.empty_like(xy)
         screen[..., 0] = _MARGIN + xy[..., 0] * self.pixels_per_metre
-        screen[..., 1] = _MARGIN + 24 + (height - xy[..., 1]) * self.pixels_per_metre
+        screen[..., 1] = _MARGIN + _HEADER + (height - xy[..., 1]) * self.pixels_per_metre
         return screen
 
     def draw(
@@ -99,11 +135,11 @@ class Renderer:
             ground = self.camera.unproject(picture.detections[:, :2])
             screen = self._to_screen(ground)
             for x, y in screen:
-                pg.draw.line(surface, (90, 90, 90), (x - 4, y - 4), (x + 4, y + 4), 2)
-                pg.draw.line(surface, (90, 90, 90), (x - 4, y + 4), (x + 4, y - 4), 2)
+                self._cross(x, y)
             self._draw_guesses(poses, picture, screen, guesses, agents)
         label = f"t = {time:7.2f} s   pictures: {0 if picture is None else picture.index + 1}"
-        surface.blit(self.font.render(label, True, (20, 20, 20)), (_MARGIN, 4))
+        surface.blit(self.font.render(label, True, _TEXT), (_MARGIN, 4))
+        self._draw_legend()
         if image is not None:
             self._draw_inset(image)
         if self.mode == "human":
@@ -134,6 +170,32 @@ class Renderer:
                 pg.draw.circle(self.surface, color, (cx, cy), half)
             pg.draw.line(self.surface, (20, 20, 20), (cx, cy), (cx + half * c, cy - half * s), 2)
 
+    def _cross(self, x: float, y: float) -> None:
+        line = self.pygame.draw.line
+        line(self.surface, _DETECTION, (x - 4, y - 4), (x + 4, y + 4), 2)
+        line(self.surface, _DETECTION, (x - 4, y + 4), (x + 4, y - 4), 2)
+
+    def _ring_radius(self) -> float:
+        return self.config.robot.size / 2.0 * self.pixels_per_metre + 5
+
+    def _draw_legend(self) -> None:
+        """One line under the arena: what a cross, a green ring and a red ring mean."""
+        pg, surface = self.pygame, self.surface
+        y = self.size[1] - _FOOTER / 2
+        x = float(_MARGIN)
+        for kind, text in (
+            ("cross", "detection"),
+            ("right", "guess right"),
+            ("wrong", "guess wrong (ring on the detection it chose)"),
+        ):
+            if kind == "cross":
+                self._cross(x + 6, y)
+            else:
+                pg.draw.circle(surface, _RIGHT if kind == "right" else _WRONG, (x + 6, y), 7, 3)
+            label = self.font.render(text, True, _TEXT)
+            surface.blit(label, (x + 18, y - label.get_height() / 2))
+            x += 18 + label.get_width() + 16
+
     def _draw_inset(self, image: np.ndarray) -> None:
         pg = self.pygame
         rows, cols = image.shape[:2]
@@ -154,14 +216,19 @@ class Renderer:
         guesses: dict[str, int | None],
         agents: list[str],
     ) -> None:
+        pg, surface = self.pygame, self.surface
         centres = self._to_screen(poses[:, :2])
+        radius = self._ring_radius()
         for i, agent in enumerate(agents):
             row = guesses.get(agent)
             if row is None or not 0 <= row < len(screen):
                 continue
-            right = row == picture.true_index[i]
-            color = (30, 160, 60) if right else (210, 40, 40)
-            self.pygame.draw.line(self.surface, color, tuple(centres[i]), tuple(screen[row]), 2)
+            if row == picture.true_index[i]:
+                pg.draw.circle(surface, _RIGHT, tuple(centres[i]), radius, 3)
+            else:
+                pg.draw.line(surface, _WRONG, tuple(centres[i]), tuple(screen[row]), 2)
+                # wider than a right ring, so that both show where they meet on one robot
+                pg.draw.circle(surface, _WRONG, tuple(screen[row]), radius + 4, 3)
 
     def close(self) -> None:
         """Close the window (human mode)."""

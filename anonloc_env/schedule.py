@@ -30,11 +30,6 @@ class PictureSchedule:
         self._k = 0
         self._due = 0.0
 
-    @property
-    def next_due(self) -> float:
-        """Time (s since reset) at which the next picture is due."""
-        return self._due
-
     def in_blackout(self, time: float) -> bool:
         """Whether ``time`` (s) falls inside a blackout window (start included, end excluded)."""
         return any(start <= time < end for start, end in self.config.blackouts)

@@ -14,6 +14,7 @@ Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown) and ``ba
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -72,6 +73,9 @@ class PolicyExcitation(Excitation):
         self.policy = policy
         self.config = config
         self.observations: list[Any] = []
+
+    def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
+        self.observations = list(observations)
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         batch = {

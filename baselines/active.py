@@ -30,9 +30,10 @@ The prediction (all closed form, vectorised over robots x hypotheses x candidate
   posterior over ``h*`` weighted by the current belief.
 
 On swarm duty (:class:`baselines.excitations.SwarmDuty`) the robot only chooses a deviation: the
-duty tells it the shared command and the budget through ``Excitation.follow``, the
-candidates are deviations (forward or backward), and the predicted displacements are those of
-``shared + budget * deviation``, for the others too (they follow the same shared stream).
+duty tells it the shared command and the budget through
+:meth:`~baselines.excitations.Excitation.follow`, the candidates are deviations (forward or
+backward), and the predicted displacements are those of ``shared + budget * deviation``, for
+the others too (they follow the same shared stream).
 
 After a bump the robot reverses out (:class:`baselines.excitations.BackOff`) and resumes its
 choice.

@@ -14,9 +14,9 @@ between all robots, each blending in a fraction ``jitter`` of its own draw.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,8 +30,11 @@ class Excitation:
     """Base class of the motions between pictures: holds one generator per robot.
 
     A subclass implements :meth:`commands` (compulsory) and may override :meth:`reset` (to draw
-    its per-episode state) and :meth:`on_picture` (to read what the robots now believe, as an
-    active-identification excitation does).
+    its per-episode state), :meth:`on_picture` (to read what the robots now believe, as an
+    active-identification excitation does), :meth:`on_observations` (to read the robots' raw
+    observations, as a policy used as an excitation does) and :meth:`follow` (on swarm duty).
+    The team calls them in this order at every step: ``on_observations``, ``on_picture`` (at a
+    new picture), ``follow`` (on swarm duty), ``commands``.
     """
 
     def __init__(self) -> None:
@@ -45,6 +48,10 @@ class Excitation:
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         """Start an episode; ``rngs`` has one generator per robot."""
         self.rngs = list(rngs)
+
+    def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
+        """Called at every step, first, with the robots' observations (robot order, as the env
+        gives them). The default does nothing."""
 
     def on_picture(self, step: Step, localizer: Localizer) -> None:
         """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
@@ -296,7 +303,7 @@ class SwarmDuty(Excitation):
     The shared stream is :class:`SwarmMotion` with jitter 0 (identical commands for all robots,
     each still turning away after a bump). The robot's own motion comes from ``deviation``, any
     excitation (or a learned policy), scaled by ``budget``, which is told the shared command and
-    the budget before each step (``Excitation.follow``)::
+    the budget before each step (:meth:`~baselines.excitations.Excitation.follow`)::
 
         v = v_shared + budget * v_own,   w = w_shared + budget * w_own
 
@@ -321,6 +328,9 @@ class SwarmDuty(Excitation):
         super().reset(rngs)
         self.shared.reset(rngs)
         self.deviation.reset(rngs)
+
+    def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
+        self.deviation.on_observations(observations)
 
     def on_picture(self, step: Step, localizer: Localizer) -> None:
         self.deviation.on_picture(step, localizer)

@@ -5,8 +5,6 @@ Every function takes arrays and returns arrays; none reads an environment.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
@@ -89,8 +87,3 @@ def decide(chi2: np.ndarray, threshold: float) -> np.ndarray:
     best = np.argmin(chi2, axis=1)
     ok = chi2[np.arange(len(chi2)), best] <= threshold
     return np.where(ok, best, -1)
-
-
-def chi2_quantile_2dof(p: float) -> float:
-    """Quantile of a chi-square with 2 degrees of freedom: ``-2 log(1 - p)``."""
-    return -2.0 * math.log(1.0 - p)

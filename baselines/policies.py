@@ -93,7 +93,8 @@ class Team:
 
     def observe(self, observations: Sequence[Mapping[str, Any]]) -> Step:
         """Take in one step of the robots' observations (in robot order): the motion log and, at
-        a new picture, every localizer and then the excitation's ``Excitation.on_picture``.
+        a new picture, every localizer and then the excitation's
+        :meth:`~baselines.excitations.Excitation.on_picture`.
         """
         step = read_step(observations)
         interval = self.log.observe(step)
@@ -116,9 +117,8 @@ class Team:
 
     def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
         """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
+        self.excitation.on_observations(observations)
         step = self.observe(observations)
-        if hasattr(self.excitation, "observations"):  # a policy as excitation needs them
-            self.excitation.observations = list(observations)
         v, w = self.excitation.commands(step, self.config.dt)
         actions = to_actions(v, w, self.config.robot)
         self.commanded(actions)

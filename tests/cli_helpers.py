@@ -22,14 +22,16 @@ def invoke(*args: str) -> Any:
 
 
 def run_module(
-    *args: str, module: str = "anonloc_cli", **kwargs: Any
+    *args: str, module: str = "anonloc_cli", sdl_dummy: bool = True, **kwargs: Any
 ) -> subprocess.CompletedProcess[str]:
-    """Run ``python -m MODULE ARGS`` in a subprocess with this checkout first on the path."""
+    """Run ``python -m MODULE ARGS`` in a subprocess with this checkout first on the path
+    (and SDL's dummy video driver unless ``sdl_dummy`` is false: a user's machine has none)."""
     env = {
         **os.environ,
         "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
     }
-    env.setdefault("SDL_VIDEODRIVER", "dummy")
+    if sdl_dummy:
+        env.setdefault("SDL_VIDEODRIVER", "dummy")
     return subprocess.run(
         [sys.executable, "-m", module, *map(str, args)],
         capture_output=True,

@@ -33,6 +33,7 @@ def success(env, team, seeds, **kwargs) -> tuple[float, int]:
     return right / total, undecided
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("name", "preset"),
     [
@@ -54,6 +55,7 @@ def test_noise_free_two_robots_corrected_methods_are_always_right(name: str, pre
     assert undecided == 0
 
 
+@pytest.mark.slow
 def test_faithful_angular_fails_on_shuffled_pictures_even_without_noise() -> None:
     """The paper's Algorithm 1 pairs rows by index; our pictures are shuffled, so about half of
     its pairings are of two different robots."""
@@ -63,6 +65,7 @@ def test_faithful_angular_fails_on_shuffled_pictures_even_without_noise() -> Non
     assert 0.55 < rate < 0.9  # 200 runs, 400 decisions: far from the corrected 100 %
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("preset", "excitation"),
     [("paper-angular", "angular"), ("paper-linear", "linear"), ("paper-motion", "motion")],
@@ -248,3 +251,31 @@ def test_information_gain_adds_up_to_the_log_belief_gained() -> None:
         total += np.array(list(rewards.values()))
     np.testing.assert_allclose(total, env.reward_fn.log_true - start, atol=1e-9)
     assert np.all(total > math.log(5) - 0.5)  # every robot ends up nearly sure of itself
+
+
+def test_the_team_hands_every_step_s_observations_to_its_excitation() -> None:
+    """``Excitation.on_observations`` is part of the contract, also through ``SwarmDuty``."""
+    from baselines.excitations import Excitation, SwarmDuty
+
+    class Recorder(Excitation):
+        def __init__(self) -> None:
+            super().__init__()
+            self.seen: list[int] = []
+
+        def on_observations(self, observations) -> None:
+            self.seen.append(len(observations))
+
+        def commands(self, step, dt):
+            return np.zeros(self.n), np.zeros(self.n)
+
+    env = anonloc_env.parallel_env(n_robots=3)
+    for wrap in (False, True):
+        recorder = Recorder()
+        excitation = SwarmDuty(recorder) if wrap else recorder
+        team = baselines.make_team("bayes", env.config, excitation=excitation)
+        observations, _ = env.reset(seed=0)
+        team.reset(np.random.SeedSequence(0).spawn(3))
+        for _ in range(4):
+            actions = team.act([observations[a] for a in env.possible_agents])
+            observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
+        assert recorder.seen == [3, 3, 3, 3]

@@ -44,11 +44,19 @@ def test_python_m_anonloc_cli_and_anonloc_env_run_the_cli() -> None:
         assert "bench" in done.stdout
 
 
-def test_python_m_anonloc_env_still_writes_a_frame(tmp_path: Path) -> None:
-    pytest.importorskip("pygame", reason="the frame needs the render extra (pygame-ce)")
-    done = run_module("--out", tmp_path / "f.png", "--steps", "5", module="anonloc_env")
+def test_python_m_anonloc_env_frame_writes_a_png_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("pygame", reason="the frame needs pygame-ce")
+    for name in ("SDL_VIDEODRIVER", "SDL_AUDIODRIVER", "XDG_RUNTIME_DIR", "DISPLAY"):
+        monkeypatch.delenv(name, raising=False)  # a headless machine, as a user has it
+    out = tmp_path / "f.png"
+    args = ("frame", "--out", out, "--steps", "5", "--quiet")
+    done = run_module(*args, module="anonloc_env", sdl_dummy=False)
     assert done.returncode == 0, done.stderr
-    assert (tmp_path / "f.png").stat().st_size > 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert str(out.resolve()) in done.stdout  # it says where it wrote
+    assert done.stderr == ""  # no SDL message (XDG_RUNTIME_DIR) on a headless machine
 
 
 def test_help_imports_nothing_heavy() -> None:

@@ -158,3 +158,20 @@ def test_reference_refuses_what_it_cannot_do_exactly() -> None:
     with pytest.raises(ValueError, match="MAX_TRACKS"):
         exact_beliefs(model, many, [Interval.exact(np.zeros((2, 2)), np.zeros(2))] * 4)
     assert MAX_TRACKS < 13**5
+
+
+def test_belief_and_missing_agree_before_and_after_a_picture() -> None:
+    """Before any picture both refuse; after one, [belief | missing] is a distribution per robot."""
+    ident = Identifier(_model(p_detect=0.8), 3)
+    for method in (ident.belief, ident.missing):
+        with pytest.raises(RuntimeError, match="no picture yet"):
+            method()
+    rows = np.array([[10.0, 20.0, 0.1], [200.0, 40.0, -1.0], [90.0, 300.0, 2.0]])
+    ident.update(rows, None)
+    full = np.column_stack([ident.belief(), ident.missing()])
+    assert full.shape == (3, 4)
+    np.testing.assert_allclose(full.sum(axis=1), 1.0, atol=1e-12)
+    assert np.all(ident.missing() > 0.0)  # p_detect < 1: every robot may be out of the picture
+    ident.reset()
+    with pytest.raises(RuntimeError, match="no picture yet"):
+        ident.missing()

@@ -48,18 +48,39 @@ def test_reward_without_the_interface_is_refused() -> None:
         anonloc_env.parallel_env(reward_fn=lambda context: 0.0)
 
 
-def test_rgb_array_frame_shows_the_arena_and_robots() -> None:
+def test_rgb_array_frame_draws_robots_where_they_are_and_marks_guesses() -> None:
     pytest.importorskip("pygame")
-    env = anonloc_env.parallel_env(n_robots=3, render_mode="rgb_array")
-    env.reset(seed=0)
-    env.guesses = {"robot_0": int(env.picture.true_index[0]), "robot_1": 0}
+    from anonloc_env import render
+
+    env = anonloc_env.parallel_env(n_robots=2, camera={"pixel_noise": 0.0}, render_mode="rgb_array")
+    poses = [[1.0, 1.0, 0.0], [3.0, 2.5, np.pi / 2]]  # metres, metres, radians
+    env.reset(seed=0, options={"poses": poses})
+    blank = env.render()
+    truth = env.picture.true_index
+    # robot_0 guesses right, robot_1 wrong (robot_0's row)
+    env.guesses = {"robot_0": int(truth[0]), "robot_1": int(truth[0])}
     frame = env.render()
-    assert frame.dtype == np.uint8
-    assert frame.ndim == 3
-    assert frame.shape[2] == 3
-    colours = {tuple(c) for c in frame.reshape(-1, 3)[::7]}
-    assert len(colours) > 5  # background, walls, robots, detections, guesses
     env.close()
+    renderer = env._renderer or render.Renderer(env.config, env.camera, "rgb_array")
+    assert frame.dtype == np.uint8
+    assert frame.shape == (renderer.size[1], renderer.size[0], 3)
+    ring = renderer._ring_radius()
+
+    def pixel(xy: list[float], dx: float = 0.0, dy: float = 0.0) -> tuple[int, ...]:
+        x, y = renderer._to_screen(np.array(xy, dtype=float))
+        return tuple(int(c) for c in frame[round(y + dy), round(x + dx)])
+
+    assert renderer.pixels_per_metre * env.config.robot.size / 2 > 7  # bodies wider than 7 px
+    for (x, y, _), colour in zip(poses, renderer.colors, strict=True):
+        # 6 px below the centre: off the heading line (+x, then up) and the cross's diagonals
+        assert pixel([x, y], dy=6) == colour
+        assert pixel([x, y], dx=60) == (250, 250, 250)  # background beside it
+    assert pixel(poses[0][:2], dx=-ring + 1) == render._RIGHT  # green ring: right
+    x0, y0 = renderer._to_screen(np.array(poses[0][:2]))
+    assert tuple(blank[round(y0), round(x0 - ring + 1)]) == (250, 250, 250)  # no guess: no ring
+    # robot_1's wrong guess: a red ring, wider, on robot_0's detection (noise-free: on robot_0)
+    assert pixel(poses[0][:2], dx=ring + 3) == render._WRONG
+    assert pixel(poses[1][:2], dx=ring - 1) == (250, 250, 250)  # no ring on a wrong robot
 
 
 def test_bad_render_mode_is_refused() -> None:

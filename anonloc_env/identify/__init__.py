@@ -32,7 +32,7 @@ Layout: :mod:`~anonloc_env.identify.model` (the sensor model and the densities),
 identifier against).
 """
 
-from anonloc_env.identify.filter import MISSED_PER_ROBOT, PRUNE_NATS, Identifier, picture_rows
+from anonloc_env.identify.filter import MISSED_PER_ROBOT, PRUNE_NATS, Identifier
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_i0e, ring_loglik
 from anonloc_env.odometry import Interval
 
@@ -44,6 +44,5 @@ __all__ = [
     "Interval",
     "SensorModel",
     "log_i0e",
-    "picture_rows",
     "ring_loglik",
 ]

@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 
-from anonloc_env.camera import Picture
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
@@ -60,7 +59,7 @@ class Identifier:
         self.unanchored = np.zeros(self.n)  # log weight of "position unknown"
         self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
         self._belief: np.ndarray | None = None
-        self._missing = np.ones(self.n)
+        self._missing: np.ndarray | None = None
         self.pictures = 0
 
     # -- noise floors: float32 observations limit what "noise free" can mean ---------------------
@@ -454,20 +453,26 @@ class Identifier:
         self._missing = missing / total
 
     def belief(self) -> np.ndarray:
-        """``(R, n)`` probability that each row of the newest picture is robot i."""
+        """``(R, n)`` probability that each row of the newest picture is robot i.
+
+        A row of it sums to ``1 - missing()[i]``, not to 1: robot i may be out of the picture
+        (missed). ``np.column_stack([belief(), missing()])`` is the full distribution over the
+        ``n + 1`` outcomes, rows summing to 1.
+
+        Raises:
+            RuntimeError: before the first :meth:`update` (there is no picture yet).
+        """
         if self._belief is None:
             raise RuntimeError("no picture yet: call update() first")
         return self._belief
 
     def missing(self) -> np.ndarray:
-        """``(R,)`` probability that robot i is not in the newest picture."""
+        """``(R,)`` probability that robot i is not in the newest picture (the last column of the
+        full distribution: see :meth:`belief`).
+
+        Raises:
+            RuntimeError: before the first :meth:`update`, as :meth:`belief` does.
+        """
+        if self._missing is None:
+            raise RuntimeError("no picture yet: call update() first")
         return self._missing
-
-    def n_tracks(self) -> np.ndarray:
-        """``(R,)`` explicit hypotheses kept per robot (a measure of ambiguity and cost)."""
-        return np.bincount(self.tracks.slot, minlength=self.n)
-
-
-def picture_rows(picture: Picture) -> np.ndarray:
-    """The ``(n, 3)`` detection rows of a picture."""
-    return picture.detections
