@@ -99,8 +99,9 @@ class PPOSettings:
 
     Attributes:
         train_batch_size: env steps sampled per training iteration, >= 1 (RLlib counts a step
-            of the whole env once: the module trains on N robot steps for each).
-        minibatch_size: robot steps per gradient step of the shared module, in
+            of the whole env once, a picture interval: the module trains on N robot decisions
+            for each).
+        minibatch_size: robot decisions per gradient step of the shared module, in
             [1, train_batch_size] (RLlib's bound).
         num_epochs: passes over each train batch, >= 1.
         lr: Adam learning rate, > 0.
@@ -242,7 +243,7 @@ class IterationMetrics:
 
     Attributes:
         iteration: 1 for the first.
-        agent_steps: robot steps sampled so far (all robots count).
+        agent_steps: robot decisions sampled so far (all robots count).
         env_steps: env steps sampled so far (one per control step of the whole env).
         episode_return_mean: mean return of one robot over the episodes that ended in the
             reporting window (NaN before any ended).
