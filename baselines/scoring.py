@@ -107,12 +107,15 @@ class IdentificationSummary:
         identified: how many reached the fraction (the means are over those only).
         pictures: picture index at which they did (mean and interval).
         energy: mean wheel travel per robot until then (m; mean and interval).
+        pictures_all: the same over every episode, one that never reached the fraction counted
+            at one past its last picture (a lower bound for it: a censored mean).
     """
 
     episodes: int
     identified: int
     pictures: Interval95
     energy: Interval95
+    pictures_all: Interval95
 
 
 def bootstrap_mean(
@@ -146,9 +149,14 @@ def summarize(
     """:func:`pictures_to_identify` of each episode, summarised with bootstrap intervals."""
     scores = [pictures_to_identify(r, fraction, localizer) for r in results]
     reached = [(p, e) for p, e in scores if p is not None]
+    censored = [
+        p if p is not None else 1 + max((rec.picture for rec in r.records), default=-1)
+        for (p, _), r in zip(scores, results, strict=True)
+    ]
     return IdentificationSummary(
         episodes=len(results),
         identified=len(reached),
         pictures=bootstrap_mean([p for p, _ in reached], confidence),
         energy=bootstrap_mean([e for _, e in reached], confidence),
+        pictures_all=bootstrap_mean(censored, confidence),
     )

@@ -115,9 +115,10 @@ def main() -> None:
         model = load_model(args.agent)
         names[:0] = ["agent", "agent-sampled"]
     print(
-        "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) | s |"
+        "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) "
+        "| pictures, all episodes | s |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for n in args.robots:
         for condition in args.conditions:
             if args.agent:
@@ -133,7 +134,7 @@ def main() -> None:
             for name, (s, seconds) in table.items():
                 print(
                     f"| {n} | {condition} | {name} | {s.identified}/{s.episodes} | {s.pictures} "
-                    f"| {s.energy} | {seconds:.0f} |",
+                    f"| {s.energy} | {s.pictures_all} | {seconds:.0f} |",
                     flush=True,
                 )
 

@@ -75,6 +75,8 @@ def test_summary_counts_and_interval() -> None:
     assert s.pictures.mean == 2.0
     assert 1.0 <= s.pictures.low <= s.pictures.high <= 3.0
     assert s.energy.mean == 2.0
+    # Every episode: the one that never got there counts at one past its last picture (1).
+    assert s.pictures_all.mean == (1 + 2 + 3 + 1) / 4
     assert bootstrap_mean([4.0, 4.0]).low == 4.0
 
 
