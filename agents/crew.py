@@ -133,7 +133,7 @@ class Crew:
         self.condition = condition
         self.budget = budget
         self.information_weight = information_weight
-        self.capacity = int(env.camera.capacity)
+        self.capacity = env.capacity
         self.localizer = BayesLocalizer(config, self.n)
         self.held = HeldCommands()
         excitation = condition_excitation(condition, self.held, budget)

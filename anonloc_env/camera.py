@@ -58,7 +58,33 @@ class Picture:
 
 
 class DetectionSource(Protocol):
-    """Anything that turns the robots' true poses into a :class:`Picture`."""
+    """Anything that turns the robots' true poses into a :class:`Picture` (the env's camera).
+
+    The contract:
+
+    * ``take(poses, rng, time, index)`` returns the picture of robots at ``poses`` ``(N, 3)``;
+      every random draw comes from ``rng`` (the env's generator), so episodes replay;
+    * ``capacity`` (optional attribute, int): the most rows a picture may hold. The env sizes the
+      observations' ``(D, 3)`` arrays from it; without it, the env uses the capacity of its
+      config (:func:`detection_capacity`). A picture with more rows is an error.
+
+    Example, a detector that sees every robot exactly and nothing else::
+
+        class Perfect:
+            def __init__(self, camera):
+                self.camera = camera
+                self.capacity = camera.config.n_robots
+
+            def take(self, poses, rng, time, index):
+                rows = np.column_stack(
+                    [self.camera.project(poses[:, :2]), self.camera.image_heading(poses)]
+                )
+                order = rng.permutation(len(poses))  # shuffled, as a real detector's output
+                true_index = np.argsort(order)
+                return Picture(rows[order], true_index, time, index, has_orientation=True)
+
+        env = anonloc_env.parallel_env(detector=Perfect(anonloc_env.Camera(config)))
+    """
 
     def take(
         self, poses: np.ndarray, rng: np.random.Generator, time: float, index: int

@@ -142,7 +142,17 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         n = self.config.n_robots
         self.possible_agents = [f"robot_{i}" for i in range(n)]
         self.agents: list[str] = []
-        obs_space = observation_space(self.config, self.camera.capacity)
+        capacity = getattr(self.detector, "capacity", self.camera.capacity)
+        if (
+            isinstance(capacity, bool)
+            or not isinstance(capacity, (int, np.integer))
+            or capacity < 1
+        ):
+            raise ValueError(f"detector.capacity must be an integer >= 1, got {capacity!r}")
+        self.capacity = int(capacity)
+        """Rows of a picture in the observations (``D``): the detector's ``capacity``, else the
+        config's."""
+        obs_space = observation_space(self.config, self.capacity)
         action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         # One space object per agent, built once: seeding one agent's space leaves the others
         # alone. They share one set of (read-only) bound arrays: memory stays linear in N.
@@ -236,7 +246,7 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.world = World(self.config, poses)
         self.odometry = self._new_odometry()
         self.schedule = PictureSchedule(self.config.schedule, self.config.dt, rng)
-        self.builder = ObservationBuilder(self.config, self.camera.capacity)
+        self.builder = ObservationBuilder(self.config, self.capacity)
         self.agents = self.possible_agents[:]
         self.steps = 0
         self.pictures_taken = 0
@@ -316,7 +326,13 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         if not self.schedule.take_now(time):
             return None
         assert self.world is not None
-        self.picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
+        picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
+        if picture.n_rows > self.capacity:
+            raise ValueError(
+                f"the detector returned {picture.n_rows} rows, more than its capacity "
+                f"{self.capacity} (DetectionSource.capacity sizes the observations)"
+            )
+        self.picture = picture
         self.pictures_taken += 1
         between = self.odometry.mark_picture()
         self.builder.add_picture(self.picture, between)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import anonloc_env
-from anonloc_env.camera import Camera, detection_capacity
+from anonloc_env.camera import Camera, Picture, detection_capacity
 from tests.helpers import constant_actions
 
 
@@ -166,3 +166,43 @@ def test_pixel_and_orientation_noise_have_the_set_spread() -> None:
     assert np.std(rows[:, 0] - clean[0]) == pytest.approx(2.0, rel=0.06)
     assert np.std(rows[:, 1] - clean[1]) == pytest.approx(2.0, rel=0.06)
     assert np.degrees(np.std(rows[:, 2])) == pytest.approx(3.0, rel=0.06)
+
+
+class _Perfect:
+    """The DetectionSource docstring's example: every robot, exactly, shuffled."""
+
+    def __init__(self, camera: Camera, capacity: int | None = None) -> None:
+        self.camera = camera
+        self.capacity = camera.config.n_robots if capacity is None else capacity
+
+    def take(self, poses: np.ndarray, rng: np.random.Generator, time: float, index: int) -> Picture:
+        rows = np.column_stack(
+            [self.camera.project(poses[:, :2]), self.camera.image_heading(poses)]
+        )
+        order = rng.permutation(len(poses))
+        return Picture(rows[order], np.argsort(order), time, index, has_orientation=True)
+
+
+def test_a_custom_detector_sizes_the_observations_and_is_scored_by_its_truth() -> None:
+    config = anonloc_env.make_config(n_robots=3, camera={"false_positives": 5.0})
+    env = anonloc_env.parallel_env(
+        n_robots=3, camera={"false_positives": 5.0}, detector=_Perfect(Camera(config))
+    )
+    assert env.capacity == 3  # the detector's, not the config's (which leaves room for clutter)
+    assert Camera(config).capacity > 3
+    observations, infos = env.reset(seed=4)
+    first = observations["robot_0"]
+    assert first["detections"].shape == (3, 3)
+    assert env.observation_space("robot_0").contains(first)
+    state = env.state()
+    for i, agent in enumerate(env.agents):
+        row = first["detections"][infos[agent]["true_index"]]
+        np.testing.assert_allclose(row[:2], env.camera.project(state[i : i + 1, :2])[0], rtol=1e-6)
+
+
+def test_a_detector_that_overflows_its_capacity_is_an_error() -> None:
+    config = anonloc_env.make_config(n_robots=3)
+    with pytest.raises(ValueError, match="more than its capacity 2"):
+        anonloc_env.parallel_env(n_robots=3, detector=_Perfect(Camera(config), 2)).reset(seed=0)
+    with pytest.raises(ValueError, match=r"detector\.capacity must be an integer"):
+        anonloc_env.parallel_env(n_robots=3, detector=_Perfect(Camera(config), 0))
