@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from anonloc_env.identify import ring_loglik
-from baselines.excitations import BackOff, DistinctSettings
+from baselines.excitations import BackOff, DistinctSettings, check_command_box
 from baselines.observations import Step
 
 if TYPE_CHECKING:
@@ -91,13 +91,7 @@ class GreedySettings:
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        low, high = self.speed
-        if not 0.0 <= low <= high:
-            raise ValueError(
-                f"speed must be (low, high) with 0 <= low <= high m/s, got {self.speed}"
-            )
-        if not self.turn >= 0.0:
-            raise ValueError(f"turn must be >= 0 rad/s, got {self.turn}")
+        check_command_box(self.speed, self.turn)
         if not 0.0 <= self.floor < 1.0:
             raise ValueError(f"floor must be in [0, 1), got {self.floor}")
         if not self.energy_weight >= 0.0:

@@ -342,6 +342,16 @@ class SwarmDuty(Excitation):
         return v_shared + self.budget * v_own, w_shared + self.budget * w_own
 
 
+def check_command_box(speed: tuple[float, float], turn: float) -> None:
+    """Refuse a range of speeds ``(low, high)`` (m/s) or a largest turn rate (rad/s) that no
+    robot command can take."""
+    low, high = speed
+    if not 0.0 <= low <= high:
+        raise ValueError(f"speed must be (low, high) with 0 <= low <= high m/s, got {speed}")
+    if not turn >= 0.0:
+        raise ValueError(f"turn must be >= 0 rad/s, got {turn}")
+
+
 @dataclass
 class DistinctSettings:
     """Distinct motion, all rates in SI units.
@@ -360,13 +370,7 @@ class DistinctSettings:
     back_time: tuple[float, float] = (0.5, 1.0)
 
     def __post_init__(self) -> None:
-        low, high = self.speed
-        if not 0.0 <= low <= high:
-            raise ValueError(
-                f"speed must be (low, high) with 0 <= low <= high m/s, got {self.speed}"
-            )
-        if not self.turn >= 0.0:
-            raise ValueError(f"turn must be >= 0 rad/s, got {self.turn}")
+        check_command_box(self.speed, self.turn)
         if not self.back_speed >= 0.0:
             raise ValueError(f"back_speed must be >= 0 m/s, got {self.back_speed}")
         if not 0.0 <= self.back_time[0] <= self.back_time[1]:
