@@ -79,11 +79,16 @@ def scores_to_belief(chi2: np.ndarray) -> np.ndarray:
     return weights / weights.sum(axis=1, keepdims=True)
 
 
-def decide(chi2: np.ndarray, threshold: float) -> np.ndarray:
-    """Per robot, the row with the smallest score if it is at most ``threshold``, else -1."""
+def decide(chi2: np.ndarray, threshold: float, margin: float = 0.0) -> np.ndarray:
+    """Per robot, the row with the smallest score if it is at most ``threshold`` and every other
+    row scores at least ``margin`` more (0: the smallest wins however close), else -1."""
     chi2 = np.atleast_2d(np.asarray(chi2, dtype=np.float64))
     if chi2.shape[1] == 0:
         return np.full(len(chi2), -1, dtype=np.int64)
     best = np.argmin(chi2, axis=1)
-    ok = chi2[np.arange(len(chi2)), best] <= threshold
+    lowest = chi2[np.arange(len(chi2)), best]
+    ok = lowest <= threshold
+    if margin > 0.0 and chi2.shape[1] > 1:
+        runner_up = np.partition(chi2, 1, axis=1)[:, 1]
+        ok &= runner_up - lowest >= margin
     return np.where(ok, best, -1)

@@ -25,6 +25,9 @@ from baselines.geometry import decide, scores_to_belief
 MODES = ("corrected", "faithful")
 #: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
 CHI2_THRESHOLD = {1: 15.14, 2: 18.42, 3: 21.11}
+#: Chi-square margin over every other row for a corrected decision: the chosen row must be at
+#: least 99 times as likely as the runner-up (2 ln 99).
+CHI2_MARGIN = 2.0 * math.log(99.0)
 
 
 class Localizer:
@@ -83,14 +86,19 @@ class Localizer:
     def _sigma(self, interval: Interval) -> np.ndarray:
         """``(R,)`` per-coordinate tolerance (image units) of a detection's displacement: pixel
         noise, each robot's odometry noise, and what contacts may have moved it unseen."""
-        var_d, _ = interval.variances(self.model.odometry_noise)
-        cov = interval.push_covariance()
-        push = 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
-        return np.sqrt(self.sigma**2 + self.scale**2 * (var_d + push))
+        var_d, _ = self._odometry_variance(interval)
+        return np.sqrt(self.sigma**2 + self.scale**2 * var_d)
 
-    def _set_from_chi2(self, chi2: np.ndarray, dof: int) -> None:
+    def _odometry_variance(self, interval: Interval) -> tuple[np.ndarray, np.ndarray]:
+        """``(R,)`` variance per component of the own displacement (m^2: odometry and unseen
+        contact pushes) and of the heading change (rad^2) over ``interval``."""
+        var_d, var_dphi = interval.variances(self.model.odometry_noise)
+        cov = interval.push_covariance()
+        return var_d + 0.5 * (cov[:, 0, 0] + cov[:, 1, 1]), var_dphi
+
+    def _set_from_chi2(self, chi2: np.ndarray, dof: int, margin: float = 0.0) -> None:
         self.belief = scores_to_belief(chi2)
-        self.estimate = decide(chi2, CHI2_THRESHOLD[dof])
+        self.estimate = decide(chi2, CHI2_THRESHOLD[dof], margin)
 
     def _set_from_deviation(self, deviation: np.ndarray) -> None:
         """Faithful decision: the smallest deviation wins, whatever its size."""
@@ -200,6 +208,8 @@ class Motion3Localizer(Localizer):
             dev = motion.faithful_scale_free_deviation(p0, p1, p2, first.d, first.dphi, second.d)
             self._set_from_deviation(dev)
             return
+        var_d1, var_dphi1 = self._odometry_variance(first)
+        var_d2, _ = self._odometry_variance(second)
         chi2 = motion.scale_free_residuals(
             p0,
             p1,
@@ -207,11 +217,14 @@ class Motion3Localizer(Localizer):
             first.d,
             first.dphi,
             second.d,
-            np.hypot(self._sigma(first), self._sigma(second)),
+            self.sigma,
             2 * self._reach(first),
             2 * self._reach(second),
+            var_d1,
+            var_d2,
+            var_dphi1,
         )
-        self._set_from_chi2(chi2, dof=2)
+        self._set_from_chi2(chi2, dof=2, margin=CHI2_MARGIN)
 
 
 class BayesLocalizer(Localizer):

@@ -126,9 +126,20 @@ def scale_free_residuals(
     pixel_noise: float | np.ndarray,
     reach01: float,
     reach12: float,
+    var_d1: float | np.ndarray = 0.0,
+    var_d2: float | np.ndarray = 0.0,
+    var_dphi1: float | np.ndarray = 0.0,
 ) -> np.ndarray:
     """``(R, n2)`` chi-square (2 dof) of the best three-picture track ending at each row, the
     scale unknown (``motion3``, corrected).
+
+    The prediction ``M leg1`` is linear in the first leg, ``M = (|d2| / |d1|) R(phi)`` with
+    ``phi = ang(d2) - ang(d1) + dphi1``, so the pixel noise propagates exactly: the residual
+    ``p2 - (I + M) p1 + M p0`` has variance ``sigma^2 (2 + 2 k^2 + 2 k cos phi)`` per component,
+    ``k = |d2| / |d1|``. A first leg the robot barely moved carries no scale: ``k`` grows and the
+    test stops discriminating rather than trusting a scale made of noise. Odometry errors in
+    ``d1`` and ``dphi1`` swing the prediction by ``|pred| sigma_d1 / |d1|`` and
+    ``|pred| sigma_dphi1``; an error in ``d2`` by ``s sigma_d2``, ``s = |leg1| / |d1|``.
 
     Args:
         p0, p1, p2: ``(n_k, 2)`` detections of the three pictures.
@@ -136,11 +147,17 @@ def scale_free_residuals(
             the start of its interval); dphi1: ``(R,)`` heading change over the first interval.
         pixel_noise: detection noise (image units), > 0: a scalar or ``(R,)``.
         reach01, reach12: farthest any robot can move over each interval (image units).
+        var_d1, var_d2: variance per component of ``d1`` and ``d2`` (m^2): odometry and unseen
+            pushes; a scalar or ``(R,)``.
+        var_dphi1: variance of ``dphi1`` (rad^2), a scalar or ``(R,)``.
     """
     d1, d2 = np.atleast_2d(d1), np.atleast_2d(d2)
-    sigma = np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), (len(d1),))[:, None]
-    dphi1 = np.atleast_1d(dphi1)
     n_robots = len(d1)
+
+    def per_robot(x: float | np.ndarray) -> np.ndarray:
+        return np.broadcast_to(np.asarray(x, dtype=np.float64), (n_robots,))[:, None]
+
+    dphi1 = np.atleast_1d(dphi1)
     out = np.full((n_robots, len(p2)), np.inf)
     a, b, c = chain_triples(p0, p1, p2, reach01, reach12)
     if len(a) == 0:
@@ -148,11 +165,19 @@ def scale_free_residuals(
     leg1 = (p1[b] - p0[a])[None]  # (1, T, 2)
     leg2 = (p2[c] - p1[b])[None]
     pred = _predict_second_leg(leg1, d1[:, None, :], dphi1[:, None], d2[:, None, :], True)
-    # The first leg's noise (two detections) swings the prediction by |leg2| / |leg1|.
-    r1 = np.hypot(*leg1[0].T)[None]
-    r2 = np.hypot(*leg2[0].T)[None]
+    rho1 = np.hypot(*d1.T)[:, None]  # (R, 1)
+    rho2 = np.hypot(*d2.T)[:, None]
+    phi = (np.arctan2(d2[:, 1], d2[:, 0]) - np.arctan2(d1[:, 1], d1[:, 0]) + dphi1)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        var = sigma**2 * (2.0 + 2.0 * (r2 / r1) ** 2 + 2.0 * r2 / np.maximum(r1, 1e-12))
+        k = rho2 / rho1
+        s = np.hypot(*leg1[0].T)[None] / rho1  # (R, T)
+        pred_len2 = (pred**2).sum(-1)
+        var = (
+            per_robot(pixel_noise) ** 2 * (2.0 + 2.0 * k**2 + 2.0 * k * np.cos(phi))
+            + pred_len2 * per_robot(var_d1) / rho1**2
+            + pred_len2 * per_robot(var_dphi1)
+            + s**2 * per_robot(var_d2)
+        )
         chi2 = ((leg2 - pred) ** 2).sum(-1) / var
     chi2 = np.where(np.isfinite(chi2), chi2, np.inf)
     return min_per_column(chi2, c, len(p2))

@@ -169,6 +169,37 @@ def test_scale_free_motion_predicts_the_second_leg() -> None:
     assert dev[0, 0] == pytest.approx(0.0, abs=1e-9)  # here arctan keeps the quadrant
 
 
+@pytest.mark.parametrize("first_leg", [0.5, 0.02])
+def test_scale_free_chi_square_is_calibrated_under_pixel_noise(first_leg: float) -> None:
+    """The true track's chi-square has 2 degrees of freedom under Gaussian pixel noise, also
+    when the first leg is barely longer than the noise (a 0.02 m leg is 0.66 px at 33 px/m,
+    sigma 1 px): the variance propagates the noise exactly through the linear prediction.
+    4000 seeded draws: the mean of chi2(2) is 2 with a standard error of 0.032; tolerance 0.15."""
+    rng = np.random.default_rng(7)
+    scale, sigma, n = 33.0, 1.0, 4000
+    chi2 = np.empty(n)
+    for t in range(n):
+        theta, dphi1 = rng.uniform(-np.pi, np.pi, 2)
+        d1 = first_leg * np.array([np.cos(a := rng.uniform(-np.pi, np.pi)), np.sin(a)])
+        d2 = rng.uniform(0.1, 0.5) * np.array([np.cos(b := rng.uniform(-np.pi, np.pi)), np.sin(b)])
+        p0 = rng.uniform(0, 100, (1, 2))
+        p1 = p0 + scale * rotate(d1, theta)
+        p2 = p1 + scale * rotate(d2, theta + dphi1)
+        noisy = [p + rng.normal(0.0, sigma, 2) for p in (p0, p1, p2)]
+        chi2[t] = motion.scale_free_residuals(
+            *noisy, d1[None], np.array([dphi1]), d2[None], sigma, 1e3, 1e3
+        )[0, 0]
+    assert abs(chi2.mean() - 2.0) < 0.15
+
+
+def test_decide_with_a_margin_refuses_a_close_runner_up() -> None:
+    """A margin of 2 ln 99 asks the chosen row to be 99 times as likely as any other."""
+    chi2 = np.array([[0.0, 5.0], [0.0, 12.0], [1.0, np.inf]])
+    margin = 2 * math.log(99.0)
+    np.testing.assert_array_equal(decide(chi2, 15.0, margin), [-1, 0, 0])
+    np.testing.assert_array_equal(decide(chi2, 15.0), [0, 0, 0])
+
+
 def test_faithful_scale_free_loses_the_quadrant() -> None:
     """The paper's arctan(B/A): when the leg points left, theta comes out off by pi."""
     scale, theta = 30.0, 2.5  # the first leg points into the left half-plane
