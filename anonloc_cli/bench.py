@@ -118,7 +118,7 @@ def units(
 def run_unit(unit: Unit) -> list[dict[str, Any]]:
     """Play one episode; one row per robot (see the module's table)."""
     import anonloc_env
-    from anonloc_cli.policies import build_team
+    from anonloc_cli.teams import build_team
     from baselines.runner import run_episode
 
     p = unit.params

@@ -89,7 +89,7 @@ def run_unit(unit: Unit) -> dict[str, Any]:
     """One episode; per robot: pictures to its first decision and whether it was right, or (for
     ``reid``) pictures after the blackout until its true row's belief is high again."""
     import anonloc_env
-    from anonloc_cli.policies import build_team
+    from anonloc_cli.teams import build_team
     from baselines.runner import run_episode
 
     p = unit.params
