@@ -222,7 +222,7 @@ def bench(
         str | None,
         typer.Option(
             help="Motion between pictures (default: the policy's own): still, angular, "
-            "linear, motion, random, swarm."
+            "linear, random, swarm, distinct, greedy."
         ),
     ] = None,
     pictures: Annotated[

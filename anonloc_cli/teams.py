@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from anonloc_cli.console import echo
 from anonloc_cli.scenarios import InputError
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
@@ -36,7 +37,13 @@ def check_policy(name: str) -> str:
 
 
 def check_excitation(name: str | None) -> str | None:
-    """``name`` if it is an excitation (or None), else an :class:`InputError`."""
+    """``name`` if it is an excitation (or None), else an :class:`InputError`. An old name
+    (:data:`baselines.excitations.RENAMED`) still works, with a note on stderr."""
+    from baselines.excitations import RENAMED
+
+    if name in RENAMED:
+        echo(f"note: excitation {name!r} is renamed {RENAMED[name]!r}", err=True)
+        return name
     return None if name is None else _check("excitation", name, excitation_names())
 
 

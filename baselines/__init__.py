@@ -2,7 +2,7 @@
 
 >>> import anonloc_env, baselines
 >>> env = anonloc_env.parallel_env("paper-motion")
->>> policy = baselines.make("bayes", env, excitation="motion")
+>>> policy = baselines.make("bayes", env, excitation="random")
 >>> team = baselines.make_team("motion", env, n=2, mode="faithful")
 
 Every policy is built for the scenario it runs in (``env``, or ``config=`` an ``EnvConfig`` or a
@@ -22,7 +22,7 @@ import numpy as np
 import anonloc_env
 from anonloc_env.actions import to_commands
 from anonloc_env.config import EnvConfig
-from baselines.excitations import EXCITATIONS, Excitation
+from baselines.excitations import Excitation, make_excitation
 from baselines.localizers import (
     AngularLocalizer,
     BayesLocalizer,
@@ -49,8 +49,8 @@ __all__ = [
 POLICIES: dict[str, tuple[type[Localizer], str]] = {
     "angular": (AngularLocalizer, "angular"),
     "linear": (LinearLocalizer, "linear"),
-    "motion": (MotionLocalizer, "motion"),
-    "motion3": (Motion3Localizer, "motion"),
+    "motion": (MotionLocalizer, "random"),
+    "motion3": (Motion3Localizer, "random"),
     "bayes": (BayesLocalizer, "random"),
 }
 
@@ -126,9 +126,7 @@ def _excitation(spec: str | Excitation | Policy, config: EnvConfig) -> Excitatio
     if isinstance(spec, Excitation):
         return spec
     if isinstance(spec, str):
-        if spec not in EXCITATIONS:
-            raise ValueError(f"unknown excitation {spec!r}; valid: {list(EXCITATIONS)}")
-        return EXCITATIONS[spec]()
+        return make_excitation(spec)
     if isinstance(spec, Policy) or hasattr(spec, "predict"):
         return PolicyExcitation(spec, config)
     raise TypeError(f"excitation must be a name, an Excitation or a policy, got {spec!r}")

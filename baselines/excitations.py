@@ -7,19 +7,21 @@ choices never depend on another's). ``commands(step, dt)`` returns physical comm
 Defaults follow section III of the paper: turn in place counter-clockwise at up to 9 deg/s
 (angular), drive straight at up to 0.1 units/s (linear), or random motion with speeds in
 [0.1, 0.5] units/s and turn rates in [-20, 20] deg/s changed at random times every 0 to 3 s, turning
-in place at a random rate after a bump (motion). ``swarm`` shares one random command stream
+in place at a random rate after a bump (random). ``swarm`` shares one random command stream
 between all robots, each blending in a fraction ``jitter`` of its own draw.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from anonloc_env._checks import did_you_mean
 from baselines.observations import Step
 
 if TYPE_CHECKING:
@@ -462,13 +464,37 @@ EXCITATIONS: dict[str, Callable[[], Excitation]] = {
     "still": Still,
     "angular": Angular,
     "linear": Linear,
-    "motion": RandomMotion,
     "random": RandomMotion,
     "swarm": SwarmMotion,
     "distinct": DistinctMotion,
     "greedy": _greedy,
 }
-"""Excitations by name (each value builds one). ``random`` and ``motion`` are the same random
-motion; ``swarm`` is :class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common
-seed 0); ``distinct`` is :class:`DistinctMotion`; ``greedy`` is
-:class:`baselines.active.GreedyIdentification`."""
+"""Excitations by name (each value builds one). ``random`` is the paper's random motion
+(:class:`RandomMotion`, the excitation of the ``motion`` localizer); ``swarm`` is
+:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0); ``distinct`` is
+:class:`DistinctMotion`; ``greedy`` is :class:`baselines.active.GreedyIdentification`."""
+
+RENAMED = {"motion": "random"}
+"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
+``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
+
+
+def make_excitation(name: str) -> Excitation:
+    """A new excitation by name (a key of :data:`EXCITATIONS`, or an old one of :data:`RENAMED`).
+
+    Raises:
+        ValueError: an unknown name (the message lists the valid ones).
+    """
+    if name in RENAMED:
+        warnings.warn(
+            f"excitation {name!r} is renamed {RENAMED[name]!r}; the old name will be removed",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        name = RENAMED[name]
+    if name not in EXCITATIONS:
+        raise ValueError(
+            f"unknown excitation {name!r}{did_you_mean(name, EXCITATIONS)}; "
+            f"valid: {list(EXCITATIONS)}"
+        )
+    return EXCITATIONS[name]()
