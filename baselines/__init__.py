@@ -170,7 +170,8 @@ def make_team(
     cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
     if name == AGENT:
-        return _agent_team(cfg, count, mode, excitation, **kwargs)
+        capacity = getattr(getattr(env, "unwrapped", env), "capacity", None)
+        return _agent_team(cfg, count, mode, excitation, capacity=capacity, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))
@@ -182,9 +183,11 @@ def _agent_team(
     mode: str,
     excitation: Any,
     path: str | None = None,
+    capacity: int | None = None,
     **kwargs: Any,
 ) -> Team:
-    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch)."""
+    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch);
+    ``capacity``: the env's rows per picture (None: the config's)."""
     if path is None:
         raise ValueError("policy 'agent' needs path=<a saved agent.zip or its run folder>")
     if excitation is not None:
@@ -196,7 +199,7 @@ def _agent_team(
             f"policy 'agent' needs the rl extra: pip install 'anonloc[rl]' ({error})"
         ) from error
     localizer = BayesLocalizer(config, n, mode, **kwargs)
-    return Team(config, localizer, load_agent(path, config))
+    return Team(config, localizer, load_agent(path, config, capacity))
 
 
 def make(
