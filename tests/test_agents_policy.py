@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,12 +13,18 @@ pytest.importorskip("stable_baselines3")
 
 import anonloc_env
 import baselines
+from agents.policy import LearnedExcitation
 from agents.train import TrainConfig, build_model, make_vec_env
 from anonloc_env.camera import Camera, Picture
 from baselines.runner import run_episode
 
-SMALL = {"n_robots": 3, "arena_size": (2.0, 2.0), "max_cycles": 24, "picture_interval": 0.25}
-CLUTTERED = {**SMALL, "camera": {"false_positives": 5.0}}
+SMALL: dict[str, Any] = {
+    "n_robots": 3,
+    "arena_size": (2.0, 2.0),
+    "max_cycles": 24,
+    "picture_interval": 0.25,
+}
+CLUTTERED: dict[str, Any] = {**SMALL, "camera": {"false_positives": 5.0}}
 
 
 class _Exact:
@@ -53,6 +60,7 @@ def test_an_agent_built_from_an_env_with_a_custom_detector_uses_the_env_capacity
     env = anonloc_env.parallel_env(**CLUTTERED, detector=_Exact(Camera(config)))
     assert env.capacity == 3
     team = baselines.make_team("agent", env, path=str(path))
+    assert isinstance(team.excitation, LearnedExcitation)
     assert team.excitation.capacity == 3
     outcome = run_episode(env, team, seed=2)
     assert outcome.records
