@@ -38,7 +38,7 @@ class LearnedExcitation(HeldCommands):
             (reproducible too: the team's seeds decide).
         capacity: rows per picture ``D`` in the env's observations: the env's ``capacity`` (a
             custom detector's, when it has one). None: the config's
-            (:func:`anonloc_env.camera.detection_capacity`, the built-in camera's).
+            (``anonloc_env.camera.detection_capacity``, the built-in camera's).
     """
 
     def __init__(
