@@ -115,3 +115,24 @@ def check_team(
         build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
     except (TypeError, ValueError) as error:
         raise InputError(f"policy {policy!r}: {error}") from error
+
+
+def play(unit: Any) -> Any:
+    """Play the episode a bench or study unit (:class:`anonloc_cli.jobs.Unit`) describes: its
+    scenario, a team of all its robots running its policy (with the unit's ``mode``,
+    ``excitation`` and localizer ``kwargs``), its seed, up to its ``pictures``. Returns the
+    :class:`baselines.runner.EpisodeResult`."""
+    import anonloc_env
+    from baselines.runner import run_episode
+
+    p = unit.params
+    env = anonloc_env.parallel_env(**unit.scenario)
+    team = build_team(
+        unit.policy,
+        env.config,
+        mode=p.get("mode", "corrected"),
+        excitation_spec=p["excitation"],
+        seed=unit.seed,
+        **p.get("kwargs", {}),
+    )
+    return run_episode(env, team, unit.seed, max_pictures=p["pictures"])
