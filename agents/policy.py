@@ -15,7 +15,7 @@ import numpy as np
 
 from agents.crew import HeldCommands, condition_excitation
 from agents.observation import BeliefObserver
-from anonloc_env.camera import Camera
+from anonloc_env.camera import detection_capacity
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.localizers import BayesLocalizer, Localizer
@@ -36,14 +36,23 @@ class LearnedExcitation(HeldCommands):
         deterministic: act on the policy's mean action (default; the robots still differ
             through their dice), or sample the policy's Gaussian with each robot's own generator
             (reproducible too: the team's seeds decide).
+        capacity: rows per picture ``D`` in the env's observations: the env's ``capacity`` (a
+            custom detector's, when it has one). None: the config's
+            (``anonloc_env.camera.detection_capacity``, the built-in camera's).
     """
 
-    def __init__(self, model: Any, config: EnvConfig, deterministic: bool = True) -> None:
+    def __init__(
+        self,
+        model: Any,
+        config: EnvConfig,
+        deterministic: bool = True,
+        capacity: int | None = None,
+    ) -> None:
         super().__init__()
         self.model = model
         self.config = config
         self.deterministic = deterministic
-        self.capacity = Camera(config).capacity
+        self.capacity = detection_capacity(config) if capacity is None else capacity
         expected = model.observation_space["mask"].shape[0]
         if expected != self.capacity:
             raise ValueError(
@@ -105,14 +114,15 @@ def load_model(path: str | Path) -> Any:
     return PPO.load(agent_file(path), device="cpu")
 
 
-def load_agent(path: str | Path, config: EnvConfig) -> Excitation:
+def load_agent(path: str | Path, config: EnvConfig, capacity: int | None = None) -> Excitation:
     """The excitation of the agent saved at ``path`` (an ``agent.zip`` or its run folder), in the
-    condition it was trained for (``free``, or ``swarm`` duty with its budget)."""
+    condition it was trained for (``free``, or ``swarm`` duty with its budget); ``capacity`` is
+    the env's (see :class:`LearnedExcitation`)."""
     path = agent_file(path)
     model = load_model(path)
     record = path.parent / "config.json"
     train = json.loads(record.read_text())["train"] if record.is_file() else {}
-    own = LearnedExcitation(model, config)
+    own = LearnedExcitation(model, config, capacity=capacity)
     condition = train.get("condition", "free")
     if condition == "free":
         return own

@@ -222,7 +222,7 @@ def bench(
         str | None,
         typer.Option(
             help="Motion between pictures (default: the policy's own): still, angular, "
-            "linear, motion, random, swarm."
+            "linear, random, swarm, distinct, greedy."
         ),
     ] = None,
     pictures: Annotated[
@@ -247,15 +247,15 @@ def bench(
         run = _run_options(backend, address, workers, quiet)
         _check_out(out, folder=False)
         from anonloc_cli import bench as command
-        from anonloc_cli import policies, scenarios
+        from anonloc_cli import scenarios, teams
 
         resolved = [scenarios.resolve(s, set_ or []) for s in scenario]
-        names = [policies.check_policy(p) for p in policy]
-        policies.check_mode(mode)
-        policies.check_excitation(excitation)
+        names = [teams.check_policy(p) for p in policy]
+        teams.check_mode(mode)
+        teams.check_excitation(excitation)
         for s in resolved:
             for name in names:
-                policies.check_team(name, s.config, mode=mode, excitation_spec=excitation)
+                teams.check_team(name, s.config, mode=mode, excitation_spec=excitation)
         entries = [command.Entry(name, name, excitation) for name in names]
         status = command.main(
             resolved,
@@ -336,13 +336,13 @@ def render(
     Needs pygame-ce (in the cli extra); --human needs a display.
     """
     with _command(verbose):
-        from anonloc_cli import policies, scenarios
-        from anonloc_cli import render as command
+        from anonloc_cli import recording as command
+        from anonloc_cli import scenarios, teams
 
         command.check_output(out, human)
         resolved = scenarios.resolve(scenario, set_ or [])
-        name = policies.check_policy(policy)
-        policies.check_team(name, resolved.config, mode="corrected")
+        name = teams.check_policy(policy)
+        teams.check_team(name, resolved.config, mode="corrected")
         status = command.main(
             resolved, name, out=out, seed=seed, steps=steps, human=human, fps=fps, quiet=quiet
         )
@@ -401,16 +401,16 @@ def frame(
     Needs pygame-ce (in the cli extra).
     """
     with _command(verbose):
-        from anonloc_cli import policies, scenarios
-        from anonloc_cli import render as command
+        from anonloc_cli import recording as command
+        from anonloc_cli import scenarios, teams
 
         if preset is not None:
             typer.echo("Warning: --preset is deprecated; use --scenario", err=True)
             scenario = preset
         command.check_png(out)
         resolved = scenarios.resolve(scenario, set_ or [])
-        name = policies.check_policy(policy)
-        policies.check_team(name, resolved.config, mode="corrected")
+        name = teams.check_policy(policy)
+        teams.check_team(name, resolved.config, mode="corrected")
         status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)
     raise typer.Exit(status)
 

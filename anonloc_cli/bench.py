@@ -117,21 +117,10 @@ def units(
 
 def run_unit(unit: Unit) -> list[dict[str, Any]]:
     """Play one episode; one row per robot (see the module's table)."""
-    import anonloc_env
-    from anonloc_cli.policies import build_team
-    from baselines.runner import run_episode
+    from anonloc_cli.teams import play
 
     p = unit.params
-    env = anonloc_env.parallel_env(**unit.scenario)
-    team = build_team(
-        unit.policy,
-        env.config,
-        mode=p["mode"],
-        excitation_spec=p["excitation"],
-        seed=unit.seed,
-        **p.get("kwargs", {}),
-    )
-    result = run_episode(env, team, unit.seed, max_pictures=p["pictures"])
+    result = play(unit)
     own = [r for r in result.records if r.localizer == ""]
     rows = []
     for d in result.decisions():

@@ -111,7 +111,7 @@ def evaluate(
     run: RunOptions,
 ) -> int:
     """Evaluate ``agent`` and the ``against`` excitations; the exit status."""
-    from anonloc_cli import bench, policies, scenarios
+    from anonloc_cli import bench, scenarios, teams
 
     path = agent.resolve()
     if not (path.is_file() or (path / "agent.zip").is_file()):
@@ -125,10 +125,10 @@ def evaluate(
         resolved = scenarios.resolve(scenario, sets)
     entries = [bench.Entry("agent", "agent", None, {"path": str(path)})]
     for name in against:
-        policies.check_excitation(name)
+        teams.check_excitation(name)
         entries.append(bench.Entry(name, "bayes", name))
     for entry in entries:
-        policies.check_team(
+        teams.check_team(
             entry.policy,
             resolved.config,
             mode="corrected",

@@ -88,20 +88,10 @@ def units(sweep: sweeps.Sweep, seeds: int) -> list[Unit]:
 def run_unit(unit: Unit) -> dict[str, Any]:
     """One episode; per robot: pictures to its first decision and whether it was right, or (for
     ``reid``) pictures after the blackout until its true row's belief is high again."""
-    import anonloc_env
-    from anonloc_cli.policies import build_team
-    from baselines.runner import run_episode
+    from anonloc_cli.teams import play
 
     p = unit.params
-    env = anonloc_env.parallel_env(**unit.scenario)
-    team = build_team(
-        unit.policy,
-        env.config,
-        excitation_spec=p["excitation"],
-        seed=unit.seed,
-        **p["kwargs"],
-    )
-    result = run_episode(env, team, unit.seed, max_pictures=p["pictures"])
+    result = play(unit)
     if p["measure"] == "reid":
         return {"reid": _reid(result, p["after"])}
     decisions = result.decisions()

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from anonloc_env.world import Motion
+from anonloc_env.world import WheelTravel
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ class Odometry:
         """``(N, 3)`` own-frame ``(dx, dy, dphi)`` since the latest picture (m, m, rad)."""
         self.stats = IntervalStatistics(n, v_max, dt)
 
-    def integrate(self, motion: Motion, rng: np.random.Generator, speed: np.ndarray) -> None:
+    def integrate(self, motion: WheelTravel, rng: np.random.Generator, speed: np.ndarray) -> None:
         """Add one control step of wheel motion (with noise drawn from ``rng`` if any);
         ``speed`` ``(N,)`` is the commanded forward speed (m/s), for the contact bound."""
         stats = self.statistics

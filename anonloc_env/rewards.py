@@ -1,4 +1,5 @@
-"""Reward functions. The env calls one after every step; any object with this interface fits.
+"""Reward functions. The env calls one after every step; any object with the
+:class:`RewardFunction` interface fits (``env(reward_fn=...)``).
 
 A reward function sees a :class:`StepContext` (what happened during the step, the new picture if
 one was taken) and returns one float per robot. It is told at reset which task it serves, so it
@@ -54,21 +55,58 @@ class StepContext:
 
 @runtime_checkable
 class RewardFunction(Protocol):
-    """Interface of a reward function.
+    """What the env needs of a reward function: ``reset`` and ``__call__``.
 
-    A reward function may also set ``needs_statistics = False`` when it does not use the
-    per-interval statistics of :class:`anonloc_env.odometry.Interval` (path, squared
-    increments, contacts): the env then skips keeping them, which makes ``step`` cheaper.
+    A protocol, not a base class: a reward function has no state or helpers to inherit, so any
+    object with these two methods fits (the env checks them with ``isinstance`` when it is
+    built), with no import from this package needed. Subclassing it explicitly is allowed too.
+
+    The env calls, in every episode:
+
+    1. ``reset(config, rng, picture)`` at ``env.reset``, after the first picture is taken;
+    2. ``__call__(context)`` once after every ``env.step``, with what happened during the step
+       (:class:`StepContext`); it returns one reward per robot, in robot order.
+
+    Optional: an attribute ``needs_statistics = False`` says that the function never reads the
+    per-interval statistics of :class:`anonloc_env.odometry.Interval` (path, squared increments,
+    contacts) in ``context.interval``: the env then skips keeping them, which makes ``step``
+    cheaper. Without it the env keeps them.
+
+    A reward function may read the ground truth (``picture.true_index``): rewards are the env's,
+    not the robots' observations.
+
+    Example (:class:`EnergyCost` is another)::
+
+        class MovePenalty:
+            needs_statistics = False
+
+            def reset(self, config, rng, picture=None):
+                pass
+
+            def __call__(self, context):
+                return -np.hypot(context.v, context.w)  # (N,)
+
+        env = anonloc_env.parallel_env(reward_fn=MovePenalty())
+
+    A worked example that runs in an env is on the docs page *Extending*
+    (``examples/custom_reward.py``).
     """
 
     def reset(
         self, config: EnvConfig, rng: np.random.Generator, picture: Picture | None = None
     ) -> None:
-        """Start an episode of ``config``; ``rng`` is the env's generator, ``picture`` the one
-        taken at reset (None inside a blackout)."""
+        """Start an episode.
+
+        Args:
+            config: the task (its ``n_robots`` sizes the rewards; ``config.reward`` holds the
+                reward's weights).
+            rng: the env's generator: draw any randomness from it, so episodes replay.
+            picture: the picture taken at reset, None inside a blackout.
+        """
 
     def __call__(self, context: StepContext) -> np.ndarray:
-        """Return ``(N,)`` rewards for the step described by ``context``."""
+        """Return the ``(N,)`` float rewards (one per robot, in robot order) for the step that
+        ``context`` describes."""
         ...
 
 

@@ -57,7 +57,7 @@ _SOLVER_ITERATIONS = 10
 _WALL_TOLERANCE = 0.05
 
 
-class Motion(NamedTuple):
+class WheelTravel(NamedTuple):
     """What the wheels did during one control step.
 
     Attributes:
@@ -224,7 +224,7 @@ class World:
                 "supported (anonloc needs pymunk>=7,<8)"
             )
 
-    def step(self, v: np.ndarray, w: np.ndarray) -> Motion:
+    def step(self, v: np.ndarray, w: np.ndarray) -> WheelTravel:
         """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``.
 
         Each sub-step: the command as a force, pymunk's step (position correction, contacts,
@@ -271,7 +271,7 @@ class World:
                 np.maximum(worst, off_y, out=worst)
             self.poses = new
         assert worst is not None  # substeps >= 1
-        return Motion(forward, turned, worst > self._bump_tolerance)
+        return WheelTravel(forward, turned, worst > self._bump_tolerance)
 
     def _clamp_to_arena(self) -> None:
         """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces."""

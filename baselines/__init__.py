@@ -2,7 +2,7 @@
 
 >>> import anonloc_env, baselines
 >>> env = anonloc_env.parallel_env("paper-motion")
->>> policy = baselines.make("bayes", env, excitation="motion")
+>>> policy = baselines.make("bayes", env, excitation="random")
 >>> team = baselines.make_team("motion", env, n=2, mode="faithful")
 
 Every policy is built for the scenario it runs in (``env``, or ``config=`` an ``EnvConfig`` or a
@@ -22,7 +22,7 @@ import numpy as np
 import anonloc_env
 from anonloc_env.actions import to_commands
 from anonloc_env.config import EnvConfig
-from baselines.excitations import EXCITATIONS, Excitation
+from baselines.excitations import Excitation, make_excitation
 from baselines.localizers import (
     AngularLocalizer,
     BayesLocalizer,
@@ -49,8 +49,8 @@ __all__ = [
 POLICIES: dict[str, tuple[type[Localizer], str]] = {
     "angular": (AngularLocalizer, "angular"),
     "linear": (LinearLocalizer, "linear"),
-    "motion": (MotionLocalizer, "motion"),
-    "motion3": (Motion3Localizer, "motion"),
+    "motion": (MotionLocalizer, "random"),
+    "motion3": (Motion3Localizer, "random"),
     "bayes": (BayesLocalizer, "random"),
 }
 
@@ -126,9 +126,7 @@ def _excitation(spec: str | Excitation | Policy, config: EnvConfig) -> Excitatio
     if isinstance(spec, Excitation):
         return spec
     if isinstance(spec, str):
-        if spec not in EXCITATIONS:
-            raise ValueError(f"unknown excitation {spec!r}; valid: {list(EXCITATIONS)}")
-        return EXCITATIONS[spec]()
+        return make_excitation(spec)
     if isinstance(spec, Policy) or hasattr(spec, "predict"):
         return PolicyExcitation(spec, config)
     raise TypeError(f"excitation must be a name, an Excitation or a policy, got {spec!r}")
@@ -172,7 +170,8 @@ def make_team(
     cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
     if name == AGENT:
-        return _agent_team(cfg, count, mode, excitation, **kwargs)
+        capacity = getattr(getattr(env, "unwrapped", env), "capacity", None)
+        return _agent_team(cfg, count, mode, excitation, capacity=capacity, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))
@@ -184,9 +183,11 @@ def _agent_team(
     mode: str,
     excitation: Any,
     path: str | None = None,
+    capacity: int | None = None,
     **kwargs: Any,
 ) -> Team:
-    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch)."""
+    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch);
+    ``capacity``: the env's rows per picture (None: the config's)."""
     if path is None:
         raise ValueError("policy 'agent' needs path=<a saved agent.zip or its run folder>")
     if excitation is not None:
@@ -198,7 +199,7 @@ def _agent_team(
             f"policy 'agent' needs the rl extra: pip install 'anonloc[rl]' ({error})"
         ) from error
     localizer = BayesLocalizer(config, n, mode, **kwargs)
-    return Team(config, localizer, load_agent(path, config))
+    return Team(config, localizer, load_agent(path, config, capacity))
 
 
 def make(

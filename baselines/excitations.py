@@ -7,19 +7,21 @@ choices never depend on another's). ``commands(step, dt)`` returns physical comm
 Defaults follow section III of the paper: turn in place counter-clockwise at up to 9 deg/s
 (angular), drive straight at up to 0.1 units/s (linear), or random motion with speeds in
 [0.1, 0.5] units/s and turn rates in [-20, 20] deg/s changed at random times every 0 to 3 s, turning
-in place at a random rate after a bump (motion). ``swarm`` shares one random command stream
+in place at a random rate after a bump (random). ``swarm`` shares one random command stream
 between all robots, each blending in a fraction ``jitter`` of its own draw.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from anonloc_env._checks import did_you_mean
 from baselines.observations import Step
 
 if TYPE_CHECKING:
@@ -27,14 +29,32 @@ if TYPE_CHECKING:
 
 
 class Excitation:
-    """Base class of the motions between pictures: holds one generator per robot.
+    """Base class of the excitations: what R robots do between pictures so that each can be told
+    from the others.
 
-    A subclass implements :meth:`commands` (compulsory) and may override :meth:`reset` (to draw
-    its per-episode state), :meth:`on_picture` (to read what the robots now believe, as an
-    active-identification excitation does), :meth:`on_observations` (to read the robots' raw
-    observations, as a policy used as an excitation does) and :meth:`follow` (on swarm duty).
-    The team calls them in this order at every step: ``on_observations``, ``on_picture`` (at a
-    new picture), ``follow`` (on swarm duty), ``commands``.
+    An excitation drives the robots of one :class:`~baselines.policies.Team` (R robots of one env,
+    or one robot). The team calls, in every episode:
+
+    1. :meth:`reset` at the start, with one random generator per robot;
+    2. at every control step, in this order: :meth:`on_observations` (the robots' raw
+       observations), :meth:`on_picture` (only at a new picture, after the team's localizer took
+       it in), :meth:`follow` (only on swarm duty), and last :meth:`commands`.
+
+    Compulsory: :meth:`commands`, returning ``(v, w)``: ``(R,)`` forward speeds (m/s) and turn
+    rates (rad/s, counter-clockwise positive), one per robot in robot order. The env clips them to
+    the robot's ``v_max`` and ``omega_max``.
+
+    Optional: :meth:`reset` (call ``super().reset(rngs)`` first, then draw the episode's own
+    state), :meth:`on_observations`, :meth:`on_picture` (to read what the robots now believe, as
+    an active-identification excitation does) and :meth:`follow`. Every random draw comes from
+    ``self.rngs[i]`` for robot i, so that episodes replay from their seeds and a robot's choices
+    never depend on another's.
+
+    A worked example that runs in an env is on the docs page *Extending*
+    (``examples/custom_excitation.py``).
+
+    Attributes:
+        rngs: one generator per robot, set by :meth:`reset`.
     """
 
     def __init__(self) -> None:
@@ -46,7 +66,7 @@ class Excitation:
         return len(self.rngs)
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
-        """Start an episode; ``rngs`` has one generator per robot."""
+        """Start an episode; ``rngs`` has one generator per robot (their number is :attr:`n`)."""
         self.rngs = list(rngs)
 
     def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
@@ -55,7 +75,8 @@ class Excitation:
 
     def on_picture(self, step: Step, localizer: Localizer) -> None:
         """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
-        :meth:`commands`. The default does nothing."""
+        :meth:`commands`: ``localizer.estimate`` ``(R,)`` and ``localizer.belief`` ``(R, n)`` are
+        what the robots now believe. The default does nothing."""
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         """Called by :class:`SwarmDuty` before each :meth:`commands` when this excitation is the
@@ -63,8 +84,19 @@ class Excitation:
         ``budget`` its own commands are scaled by. The default ignores them."""
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(v, w)`` for every robot at this step."""
-        raise NotImplementedError
+        """The commands held during the coming control step.
+
+        Args:
+            step: what the robots observed at this step (:class:`baselines.observations.Step`):
+                ``new_picture``, the picture's ``rows`` ``(n, 3)`` (at a new picture),
+                ``odometry`` ``(R, 3)`` own ``(dx, dy, dphi)`` (m, rad) since that picture, and
+                ``bumper`` ``(R,)`` bool, a contact during the last step.
+            dt: the control step (s).
+
+        Returns:
+            ``(v, w)``: ``(R,)`` forward speeds (m/s) and ``(R,)`` turn rates (rad/s).
+        """
+        raise NotImplementedError(f"{type(self).__name__} must implement commands()")
 
     def _draw(self, low: float, high: float, who: np.ndarray) -> np.ndarray:
         return np.array([self.rngs[i].uniform(low, high) for i in who])
@@ -462,13 +494,37 @@ EXCITATIONS: dict[str, Callable[[], Excitation]] = {
     "still": Still,
     "angular": Angular,
     "linear": Linear,
-    "motion": RandomMotion,
     "random": RandomMotion,
     "swarm": SwarmMotion,
     "distinct": DistinctMotion,
     "greedy": _greedy,
 }
-"""Excitations by name (each value builds one). ``random`` and ``motion`` are the same random
-motion; ``swarm`` is :class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common
-seed 0); ``distinct`` is :class:`DistinctMotion`; ``greedy`` is
-:class:`baselines.active.GreedyIdentification`."""
+"""Excitations by name (each value builds one). ``random`` is the paper's random motion
+(:class:`RandomMotion`, the excitation of the ``motion`` localizer); ``swarm`` is
+:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0); ``distinct`` is
+:class:`DistinctMotion`; ``greedy`` is :class:`baselines.active.GreedyIdentification`."""
+
+RENAMED = {"motion": "random"}
+"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
+``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
+
+
+def make_excitation(name: str) -> Excitation:
+    """A new excitation by name (a key of :data:`EXCITATIONS`, or an old one of :data:`RENAMED`).
+
+    Raises:
+        ValueError: an unknown name (the message lists the valid ones).
+    """
+    if name in RENAMED:
+        warnings.warn(
+            f"excitation {name!r} is renamed {RENAMED[name]!r}; the old name will be removed",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        name = RENAMED[name]
+    if name not in EXCITATIONS:
+        raise ValueError(
+            f"unknown excitation {name!r}{did_you_mean(name, EXCITATIONS)}; "
+            f"valid: {list(EXCITATIONS)}"
+        )
+    return EXCITATIONS[name]()

@@ -18,9 +18,8 @@ import numpy as np
 
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
-from baselines import angular, linear, motion
+from baselines import angular, geometry, linear, motion
 from baselines.excitations import Angular, Excitation, Linear
-from baselines.geometry import decide, scores_to_belief
 
 MODES = ("corrected", "faithful")
 #: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
@@ -31,12 +30,64 @@ CHI2_MARGIN = 2.0 * math.log(99.0)
 
 
 class Localizer:
-    """Base class. Subclasses implement :meth:`_decide` on the pictures kept so far.
+    """Base class of the localizers: from pictures and the robots' own motion to "which row of
+    the newest picture is me", for R robots at once.
+
+    A localizer sees only what its robots observe: the rows of each picture and each robot's own
+    motion between pictures, never the env's state. A :class:`~baselines.policies.Team` calls it,
+    in every episode:
+
+    1. :meth:`reset`, at the start;
+    2. :meth:`on_picture`, at every picture in order (the first one too), with the picture's rows
+       and each robot's own motion since the previous picture.
+
+    After each :meth:`on_picture` the team, and the runner that scores it, read ``estimate``
+    and ``belief``.
+
+    A subclass implements one of two hooks:
+
+    * :meth:`decide` (compulsory unless :meth:`on_picture` is overridden): called by
+      :meth:`on_picture` once ``needs`` pictures are kept. It reads ``pictures``,
+      ``intervals`` and ``durations`` (newest last) and sets ``estimate`` and
+      ``belief``. Until then every robot is undecided, with a uniform belief.
+    * :meth:`on_picture` itself, for a localizer that carries its own state through every picture
+      (as :class:`BayesLocalizer` does): it must then set ``estimate`` and ``belief`` at
+      every call.
+
+    Optional: ``needs`` (class attribute), and :meth:`reset` (call ``super().reset()`` first)
+    for state of your own. Helpers for :meth:`decide`: :meth:`_sigma` (a robot's displacement
+    tolerance in image units), :meth:`_reach` (how far any robot may have moved), and
+    :meth:`_set_from_chi2` (belief and estimate from chi-square scores).
+
+    A worked example that runs in an env is on the docs page *Extending*
+    (``examples/custom_localizer.py``).
 
     Args:
         config: what the robots know of the task (nominal camera, robot and timing specs).
         n: number of robots R.
+        mode: ``"corrected"`` or ``"faithful"`` (the paper as printed); a localizer without a
+            faithful form refuses ``"faithful"``.
+
+    Attributes:
+        config: the task as the robots know it.
+        n: number of robots R.
         mode: ``"corrected"`` or ``"faithful"``.
+        model: the sensor model (``anonloc_env.identify.SensorModel``) built from ``config``:
+            pixel, orientation and odometry noise, misses, false positives, scale bounds.
+        scale: image units per metre (the largest the camera may have).
+        sigma: pixel noise of one coordinate of a detection (image units).
+        pictures: the last three pictures' rows, each ``(n_k, 3)`` ``(u, v, theta)`` in image
+            units and radians (``theta`` is 0 without detected headings), newest last. Row order
+            is random in every picture.
+        intervals: the robots' own motion between consecutive kept pictures (the last two), each
+            an ``anonloc_env.odometry.Interval``: ``d`` ``(R, 2)`` displacement (m) in the
+            robot's frame at the earlier picture, ``dphi`` ``(R,)`` heading change (rad), ``path``
+            ``(R,)`` distance rolled (m), and what contacts may have pushed it.
+        durations: the time between those pictures (s), one per interval.
+        estimate: ``(R,)`` int: the row of the newest picture robot i believes is itself, -1 while
+            undecided.
+        belief: ``(R, n)`` float: robot i's probability for each row of the newest picture (a
+            row's sum may fall short of 1: the rest is "I am not in the picture").
     """
 
     #: Pictures needed before a first decision.
@@ -54,7 +105,7 @@ class Localizer:
         self.reset()
 
     def reset(self) -> None:
-        """Forget all pictures."""
+        """Forget all pictures: every robot undecided, no rows. Called at every episode start."""
         self.pictures: list[np.ndarray] = []
         self.intervals: list[Interval] = []
         self.durations: list[float] = []
@@ -64,8 +115,16 @@ class Localizer:
     def on_picture(
         self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
     ) -> None:
-        """Take in a picture; ``interval`` is the motion since the previous one (None at first),
-        ``duration`` its length (s), ``excitation`` what drove the robots meanwhile."""
+        """Take in a picture and update ``estimate`` and ``belief``.
+
+        Args:
+            rows: ``(n, 3)`` the picture's rows ``(u, v, theta)`` (image units, rad), padding
+                removed, in random order.
+            interval: each robot's own motion since the previous picture, None at the first.
+            duration: the time since the previous picture (s; 0 at the first).
+            excitation: what drove the robots meanwhile (the paper's faithful methods read its
+                commands; most localizers ignore it).
+        """
         self.pictures = [*self.pictures[-2:], rows]
         if interval is not None:
             self.intervals = [*self.intervals[-1:], interval]
@@ -74,10 +133,14 @@ class Localizer:
         self.estimate = np.full(self.n, -1, dtype=np.int64)
         self.belief = np.full((self.n, n_rows), 1.0 / max(n_rows, 1))
         if len(self.pictures) >= self.needs and len(self.intervals) >= self.needs - 1:
-            self._decide(excitation)
+            self.decide(excitation)
 
-    def _decide(self, excitation: Excitation) -> None:
-        raise NotImplementedError
+    def decide(self, excitation: Excitation) -> None:
+        """Set ``estimate`` ``(R,)`` and ``belief`` ``(R, n)`` from the kept
+        ``pictures`` and ``intervals``, ``n`` being the newest picture's rows. Called by
+        :meth:`on_picture` at every picture once ``needs`` pictures are kept; ``excitation``
+        is what drove the robots."""
+        raise NotImplementedError(f"{type(self).__name__} must implement decide()")
 
     def _reach(self, interval: Interval) -> float:
         """Farthest any robot may move in the image over ``interval`` (image units)."""
@@ -97,8 +160,12 @@ class Localizer:
         return var_d + 0.5 * (cov[:, 0, 0] + cov[:, 1, 1]), var_dphi
 
     def _set_from_chi2(self, chi2: np.ndarray, dof: int, margin: float = 0.0) -> None:
-        self.belief = scores_to_belief(chi2)
-        self.estimate = decide(chi2, CHI2_THRESHOLD[dof], margin)
+        """``belief`` ``exp(-chi2 / 2)`` normalised per robot, and ``estimate`` the row
+        of smallest score if it passes the chi-square test at a false rejection of 1e-4 with
+        ``dof`` (1, 2 or 3) degrees of freedom and every other row scores at least ``margin``
+        more. ``chi2`` is ``(R, n)``, ``inf`` where impossible."""
+        self.belief = geometry.scores_to_belief(chi2)
+        self.estimate = geometry.decide(chi2, CHI2_THRESHOLD[dof], margin)
 
     def _set_from_deviation(self, deviation: np.ndarray) -> None:
         """Faithful decision: the smallest deviation wins, whatever its size."""
@@ -123,7 +190,7 @@ class AngularLocalizer(Localizer):
             )
         super().__init__(config, n, mode)
 
-    def _decide(self, excitation: Excitation) -> None:
+    def decide(self, excitation: Excitation) -> None:
         first, second = self.pictures[-2], self.pictures[-1]
         interval = self.intervals[-1]
         if self.mode == "faithful":
@@ -147,7 +214,7 @@ class LinearLocalizer(Localizer):
 
     needs = 3
 
-    def _decide(self, excitation: Excitation) -> None:
+    def decide(self, excitation: Excitation) -> None:
         p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
         if self.mode == "faithful":
             if not isinstance(excitation, Linear) or len(excitation.speeds) < 2:
@@ -174,7 +241,7 @@ class LinearLocalizer(Localizer):
 class MotionLocalizer(Localizer):
     """Paper II.C with the scale known (two pictures)."""
 
-    def _decide(self, excitation: Excitation) -> None:
+    def decide(self, excitation: Excitation) -> None:
         first, second = self.pictures[-2], self.pictures[-1]
         interval = self.intervals[-1]
         if self.mode == "faithful":
@@ -201,7 +268,7 @@ class Motion3Localizer(Localizer):
 
     needs = 3
 
-    def _decide(self, excitation: Excitation) -> None:
+    def decide(self, excitation: Excitation) -> None:
         p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
         first, second = self.intervals[-2], self.intervals[-1]
         if self.mode == "faithful":

@@ -1,6 +1,6 @@
 """Reading observations: the newest picture, and each robot's own motion between pictures.
 
-A localizer sees, at every step, what its robot observes and nothing else. :class:`MotionLog`
+A localizer sees, at every step, what its robot observes and nothing else. :class:`OdometryLog`
 turns the per-step own odometry into what the localizers need at each picture: an
 ``anonloc_env.odometry.Interval`` (displacement, heading change, distance rolled, the squares
 of the per-step increments for the noise model, and how far contacts may have pushed it).
@@ -75,7 +75,7 @@ _NO_ROWS = np.zeros((0, 3))
 _NO_ROWS.flags.writeable = False
 
 
-class MotionLog:
+class OdometryLog:
     """Accumulates each robot's own motion between pictures from its per-step odometry.
 
     Args:

@@ -18,7 +18,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer
-from baselines.observations import MotionLog, Step, read_step
+from baselines.observations import OdometryLog, Step, read_step
 
 
 @runtime_checkable
@@ -75,7 +75,7 @@ class Team:
             if listener.n != localizer.n:
                 raise ValueError(f"listener {name!r} has {listener.n} robots, not {localizer.n}")
         self.n = localizer.n
-        self.log = MotionLog(self.n, config.robot.v_max, config.dt)
+        self.log = OdometryLog(self.n, config.robot.v_max, config.dt)
         self.reset([None] * self.n)
 
     def reset(self, seeds: Sequence[int | np.random.SeedSequence | None]) -> None:

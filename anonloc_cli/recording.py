@@ -86,7 +86,7 @@ def play(
     import numpy as np
 
     import anonloc_env
-    from anonloc_cli.policies import build_team
+    from anonloc_cli.teams import build_team
 
     env = anonloc_env.parallel_env(**scenario.spec, render_mode="human" if human else "rgb_array")
     team = build_team(policy, env.config, seed=seed)

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from anonloc_cli.console import echo
 from anonloc_cli.scenarios import InputError
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
@@ -36,7 +37,13 @@ def check_policy(name: str) -> str:
 
 
 def check_excitation(name: str | None) -> str | None:
-    """``name`` if it is an excitation (or None), else an :class:`InputError`."""
+    """``name`` if it is an excitation (or None), else an :class:`InputError`. An old name
+    (:data:`baselines.excitations.RENAMED`) still works, with a note on stderr."""
+    from baselines.excitations import RENAMED
+
+    if name in RENAMED:
+        echo(f"note: excitation {name!r} is renamed {RENAMED[name]!r}", err=True)
+        return name
     return None if name is None else _check("excitation", name, excitation_names())
 
 
@@ -108,3 +115,24 @@ def check_team(
         build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
     except (TypeError, ValueError) as error:
         raise InputError(f"policy {policy!r}: {error}") from error
+
+
+def play(unit: Any) -> Any:
+    """Play the episode a bench or study unit (:class:`anonloc_cli.jobs.Unit`) describes: its
+    scenario, a team of all its robots running its policy (with the unit's ``mode``,
+    ``excitation`` and localizer ``kwargs``), its seed, up to its ``pictures``. Returns the
+    :class:`baselines.runner.EpisodeResult`."""
+    import anonloc_env
+    from baselines.runner import run_episode
+
+    p = unit.params
+    env = anonloc_env.parallel_env(**unit.scenario)
+    team = build_team(
+        unit.policy,
+        env.config,
+        mode=p.get("mode", "corrected"),
+        excitation_spec=p["excitation"],
+        seed=unit.seed,
+        **p.get("kwargs", {}),
+    )
+    return run_episode(env, team, unit.seed, max_pictures=p["pictures"])
