@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.geometry import match_nearest, wrap_angle
+from baselines.matching import match_nearest, wrap_angle
 
 
 def faithful_residuals(

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.geometry import chain_triples, min_per_column
+from baselines.matching import chain_triples, min_per_column
 
 #: The faithful search refuses pictures so large that n^3 triples would not fit in memory.
 MAX_FAITHFUL_TRIPLES = 20_000_000

@@ -18,7 +18,7 @@ import numpy as np
 
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
-from baselines import angular, geometry, linear, motion
+from baselines import angular, linear, matching, motion
 from baselines.excitations import Angular, Excitation, Linear
 
 MODES = ("corrected", "faithful")
@@ -164,8 +164,8 @@ class Localizer:
         of smallest score if it passes the chi-square test at a false rejection of 1e-4 with
         ``dof`` (1, 2 or 3) degrees of freedom and every other row scores at least ``margin``
         more. ``chi2`` is ``(R, n)``, ``inf`` where impossible."""
-        self.belief = geometry.scores_to_belief(chi2)
-        self.estimate = geometry.decide(chi2, CHI2_THRESHOLD[dof], margin)
+        self.belief = matching.scores_to_belief(chi2)
+        self.estimate = matching.decide(chi2, CHI2_THRESHOLD[dof], margin)
 
     def _set_from_deviation(self, deviation: np.ndarray) -> None:
         """Faithful decision: the smallest deviation wins, whatever its size."""

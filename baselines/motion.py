@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from baselines.geometry import chain_triples, min_per_column, pairs_within, rotate, wrap_angle
+from baselines.matching import chain_triples, min_per_column, pairs_within, rotate, wrap_angle
 
 MAX_FAITHFUL_TRIPLES = 20_000_000
 

@@ -13,7 +13,7 @@ from anonloc_env.geometry import rotate
 from anonloc_env.identify import log_i0e, ring_loglik
 from anonloc_env.neighbours import pairs_within
 from baselines import angular, linear, motion
-from baselines.geometry import decide, match_nearest, scores_to_belief
+from baselines.matching import decide, match_nearest, scores_to_belief
 
 
 def test_pairs_within_matches_brute_force() -> None:
