@@ -64,6 +64,7 @@ def residuals(
     pixel_noise: float | np.ndarray,
     reach01: float,
     reach12: float,
+    scale_change: float | np.ndarray = 0.0,
 ) -> np.ndarray:
     """``(R, n2)`` chi-square (2 dof) of the best straight-drive track ending at each row.
 
@@ -73,6 +74,9 @@ def residuals(
         pixel_noise: standard deviation of a detection coordinate (image units), > 0; a scalar or
             ``(R,)`` (a robot whose odometry is less sure tests with a wider tolerance).
         reach01, reach12: how far any robot can move between pictures 0-1 and 1-2 (image units).
+        scale_change: relative change of the camera scale between the two legs (a tilted camera's
+            scale varies across the arena), a scalar or ``(R,)``: it swings the predicted second
+            leg by that fraction of its length, in the variance.
     Rows no track reaches get ``inf``.
     """
     ratio = np.atleast_1d(np.asarray(ratio, dtype=np.float64))
@@ -85,6 +89,8 @@ def residuals(
     err = (p2[c] - p1[b])[None] - k[..., None] * first[None]  # (R, T, 2)
     # r - q - k (q - p) = r - (1 + k) q + k p: each detection's noise enters with these weights.
     sigma = np.broadcast_to(np.asarray(pixel_noise, dtype=np.float64), ratio.shape)[:, None]
-    var = sigma**2 * (1.0 + (1.0 + k) ** 2 + k**2)
+    change = np.broadcast_to(np.asarray(scale_change, dtype=np.float64), ratio.shape)[:, None]
+    predicted = k**2 * (first**2).sum(axis=-1)[None]  # (R, T): squared length of k (q - p)
+    var = sigma**2 * (1.0 + (1.0 + k) ** 2 + k**2) + change**2 * predicted
     chi2 = (err**2).sum(axis=-1) / var  # (R, T)
     return min_per_column(chi2, c, len(p2))

@@ -66,6 +66,7 @@ def residuals(
     pixel_noise: float | np.ndarray,
     reach: float,
     orientation_noise: float | None = None,
+    scale_spread: float = 0.0,
 ) -> np.ndarray:
     """``(R, n_second)`` chi-square of the best pair ending at each row of the second picture.
 
@@ -77,6 +78,9 @@ def residuals(
         reach: farthest any robot can move between the pictures (image units).
         orientation_noise: noise of a detected heading (rad); None if headings are not detected.
             With headings the chi-square has 3 degrees of freedom (vector and turn), else 1.
+        scale_spread: relative standard deviation of the local scale about ``scale`` (a tilted
+            camera's scale varies across the arena): the predicted length is off by that
+            fraction, in the variance.
     """
     d = np.atleast_2d(d)
     dphi = np.atleast_1d(dphi)
@@ -90,13 +94,16 @@ def residuals(
     )
     if orientation_noise is None:
         length = scale * np.hypot(*d.T)  # (R,)
-        chi2 = (dist[None, :] - length[:, None]) ** 2 / var
+        var_scale = (scale_spread * length[:, None]) ** 2
+        chi2 = (dist[None, :] - length[:, None]) ** 2 / (var + var_scale)
     else:
         pred = scale * rotate(d[:, None, :], first[i, 2][None, :])  # (R, P, 2)
         err = (second[j, :2] - first[i, :2])[None] - pred
         turn = wrap_angle(second[j, 2][None, :] - first[i, 2][None, :] - dphi[:, None])
-        var_heading = (scale * np.hypot(*d.T)) ** 2 * orientation_noise**2  # heading error swing
-        chi2 = (err**2).sum(-1) / (var + var_heading[:, None]) + turn**2 / (
+        length2 = (scale * np.hypot(*d.T)) ** 2
+        var_heading = length2 * orientation_noise**2  # heading error swing
+        var_scale = 0.5 * scale_spread**2 * length2  # along the leg only: half per component
+        chi2 = (err**2).sum(-1) / (var + (var_heading + var_scale)[:, None]) + turn**2 / (
             2.0 * orientation_noise**2
         )
     return min_per_column(chi2, j, len(second))
