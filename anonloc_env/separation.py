@@ -49,6 +49,7 @@ MAX_PROJECTIONS = 100
 SOLID = pymunk.ShapeFilter(categories=0b01, mask=0b01)
 SENSOR = pymunk.ShapeFilter(categories=0b10, mask=0b10)
 _PAIR_FIELDS = pmb.ArbiterFields.BODY_A_ID | pmb.ArbiterFields.BODY_B_ID
+_NO_PAIRS = np.zeros((0, 2), dtype=np.intp)
 
 
 class Separator:
@@ -95,12 +96,20 @@ class Separator:
         buffer.clear()
         pmb.get_space_arbiters(self.space, _PAIR_FIELDS, buffer)
         ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
+        if ids.size == 0:
+            return _NO_PAIRS
         pairs = self._rows[np.searchsorted(self._sorted_ids, ids)].reshape(-1, 2)
         pairs.sort(axis=1)
         # Robot-wall pairs (row n) go; a pair touching with its solid shapes has a second
-        # arbiter besides its sensors': keep one.
-        key = np.unique(pairs[pairs[:, 1] < self.n] @ np.array([self.n, 1]))
-        return np.column_stack(np.divmod(key, self.n))
+        # arbiter besides its sensors': keep one of each (sorted keys, repeats dropped).
+        pairs = pairs[pairs[:, 1] < self.n]
+        key = pairs[:, 0] * self.n
+        key += pairs[:, 1]
+        key.sort()
+        first = np.empty(key.size, dtype=bool)
+        first[:1] = True
+        np.not_equal(key[1:], key[:-1], out=first[1:])
+        return np.column_stack(np.divmod(key[first], self.n))
 
     def separate(self, xy: np.ndarray, theta: np.ndarray, clamp: Callable[[], None]) -> None:
         """Push overlapping robots apart in place, keeping them inside the arena.
