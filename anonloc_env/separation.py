@@ -125,32 +125,39 @@ class Separator:
         if len(pairs) == 0:
             return
         z = xy.view(np.complex128)[:, 0]  # x + iy, writing into xy
-        n, rows, flat = self.n, np.arange(len(pairs)), pairs.T.ravel()
         i, j = pairs[:, 0], pairs[:, 1]
         if self.square:
-            e = np.exp(1j * theta)
-            # axes[p] = the four edge normals of pair p: e_i, i e_i, e_j, i e_j.
-            heading = e[pairs]
-            axes = np.repeat(heading, 2, axis=1)
-            axes[:, 1::2] *= 1j
+            heading = np.exp(1j * theta[pairs])  # (P, 2)
             frames = heading.conj()
             twist = heading[:, 1] * frames[:, 0]  # exp(i (theta_j - theta_i))
-            reach = self.half * (1.0 + np.abs(twist.real) + np.abs(twist.imag))
+            # What the pair may overlap before it is pushed: its reach less the allowed overlap.
+            limit = self.half * (1.0 + np.abs(twist.real) + np.abs(twist.imag)) - self.allowed
+        else:
+            limit = np.float64(self.size - self.allowed)
+        rows = None  # the projections' arrays, built at the first one (most sub-steps need none)
         for _ in range(MAX_PROJECTIONS):
             d = z[j] - z[i]
             if self.square:
                 coords = (d[:, None] * frames).view(np.float64)  # (P, 4): d in both frames
-                best = np.abs(coords).argmax(axis=1)
-                along = coords[rows, best]
-                depth = reach - np.abs(along)
-                normal = axes[rows, best] * np.where(along < 0.0, -1.0, 1.0)
+                extent = np.abs(coords)
+                push = limit - extent.max(axis=1)
             else:
                 dist = np.abs(d)
-                depth = self.size - dist
-                normal = np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 1.0)
-            push = depth - self.allowed
+                push = limit - dist
             if not push.max() > self.stop:
                 return
+            if rows is None:
+                n, rows, flat = self.n, np.arange(len(pairs)), pairs.T.ravel()
+                if self.square:
+                    # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
+                    axes = np.repeat(heading, 2, axis=1)
+                    axes[:, 1::2] *= 1j
+            if self.square:
+                best = extent.argmax(axis=1)
+                along = coords[rows, best]
+                normal = axes[rows, best] * np.where(along < 0.0, -1.0, 1.0)
+            else:
+                normal = np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 1.0)
             # Each robot moves half the excess overlap of every pair it is in, j along the
             # normal (which points from i to j), i against it.
             move = np.maximum(push, 0.0) * 0.5 * normal
