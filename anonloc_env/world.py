@@ -20,13 +20,13 @@ Design notes:
   the command through the force that gives it in one sub-step (``damping = 0`` so the velocity
   is exactly ``f * h``), lets pymunk detect contacts and solve the velocities against them, and
   then moves every robot by its *solved* velocity itself (positions written back, velocities
-  zeroed so pymunk's own next integration only applies its position correction).
-* Solid robots: after the move, :class:`anonloc_env.separation.Separator` pushes apart every pair
-  of robots that still overlap (pymunk's solver does not converge in a crowd, does not see
-  turns, and sees a new contact only a sub-step late), so no two robots overlap by more than
-  3 % of their size after a sub-step; pymunk's own position correction is off (it would correct
-  the same overlaps a second time). Candidate pairs come from sensor shapes in pymunk's broad
-  phase (see that module).
+  zeroed so that pymunk's own next integration moves nothing).
+* Solid robots: after the move, :class:`anonloc_env.separation.Separator` pushes apart the
+  robots that still overlap (pymunk's solver does not converge in a wedged crowd, does not see
+  turns, and sees a new contact only a sub-step late) until no pair overlaps by more than 3 % of
+  the size (a bounded number of projections; see that module). pymunk's own position correction
+  is off: it would correct the same overlaps a second time. Candidate pairs come from sensor
+  shapes in pymunk's broad phase.
 * The walls are also a hard limit: after every sub-step a robot is clamped so that its shape
   reaches at most ``_WALL_TOLERANCE`` of its size into a wall, whatever the push. No robot ever
   leaves the arena, in any configuration.
@@ -242,8 +242,8 @@ class World:
 
         Each sub-step: the command as a force, pymunk's step (contacts, velocity solve), then
         the move by the solved velocities, clamped to the arena, and the separation of the
-        robots that still overlap (see the module). The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
-        broadcasts than on a few more 1-D calls.
+        robots that still overlap (see the module). The arithmetic works on 1-D columns: numpy
+        is slower on 2-D strided blocks and broadcasts than on a few more 1-D calls.
         """
         h = self.substep_dt
         fx, fy, inv_h = self._fx, self._fy, self._inv_h
