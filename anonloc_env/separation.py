@@ -13,11 +13,11 @@ size (at most :data:`MAX_PROJECTIONS` times). pymunk's own position correction i
 other neighbours); its solver still stops robots at their contacts.
 
 Candidate pairs come from pymunk's broad phase, not from a numpy neighbour search (which costs
-more than the whole step): every robot carries a *sensor* shape (a copy of its shape grown by a
-margin) that only meets other sensors. Sensors push nothing, but pymunk keeps an arbiter for
-every pair of sensors that touch, and ``pymunk.batch`` reads those pairs in one C call. The
-margin covers what two robots can move towards each other in one sub-step, so every pair that
-can overlap after the move is a candidate.
+more than the whole step): every robot carries a *sensor* shape, the circle around its shape
+grown by a margin, that only meets other sensors. Sensors push nothing, but pymunk keeps an
+arbiter for every pair of sensors that touch, and ``pymunk.batch`` reads those pairs in one C
+call. The margin covers what two robots can move towards each other in one sub-step, so every
+pair that can overlap after the move is a candidate.
 
 Positions are complex numbers ``x + iy`` (a view of the world's state array) and headings unit
 complex numbers ``e = exp(i theta)``: the coordinates of a centre offset ``d`` in robot k's frame
@@ -74,12 +74,9 @@ class Separator:
         self.allowed = ALLOWED_OVERLAP * robot.size
         self.stop = (STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size
         for body in bodies:
-            if self.square:
-                sensor: pymunk.Shape = pymunk.Poly.create_box(
-                    body, (robot.size, robot.size), radius=margin
-                )
-            else:
-                sensor = pymunk.Circle(body, robot.size / 2.0 + margin)
+            # A circle around the robot's shape: a superset of its grown shape, and the cheapest
+            # collision test pymunk has.
+            sensor = pymunk.Circle(body, robot.radius + margin)
             sensor.sensor = True
             sensor.filter = SENSOR
             space.add(sensor)
@@ -87,6 +84,7 @@ class Separator:
         ids = np.array([b.id for b in bodies] + [space.static_body.id], dtype=np.uintp)
         order = np.argsort(ids)
         self._sorted_ids = ids[order]
+        self._static_id = ids[-1]
         self._rows = order
         self._buffer = pmb.Buffer()
 
@@ -96,7 +94,7 @@ class Separator:
         buffer.clear()
         pmb.get_space_arbiters(self.space, _PAIR_FIELDS, buffer)
         ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
-        if ids.size == 0:
+        if np.count_nonzero(ids == self._static_id) * 2 == ids.size:  # none, or walls only
             return _NO_PAIRS
         pairs = self._rows[np.searchsorted(self._sorted_ids, ids)].reshape(-1, 2)
         pairs.sort(axis=1)
