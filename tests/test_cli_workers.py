@@ -21,7 +21,8 @@ from anonloc_cli.bench import store_path
 from tests.cli_helpers import ROOT, invoke, read_csv
 
 pytestmark = pytest.mark.skipif(
-    not sys.platform.startswith("linux"), reason="finds the workers through /proc (Linux)"
+    not Path(f"/proc/self/task/{os.getpid()}/children").exists(),
+    reason="finds the workers through /proc/PID/task/TID/children (Linux)",
 )
 
 SEEDS = 12
@@ -50,7 +51,6 @@ def alive(pid: int) -> bool:
     return stat.rsplit(")", 1)[1].split()[0] != "Z"
 
 
-@pytest.mark.slow
 def test_kill_9_takes_the_workers_down_and_the_rerun_resumes(tmp_path: Path) -> None:
     out = tmp_path / "bench.csv"
     args = ["bench", "--scenario", "default", "--policy", "bayes", "--seeds", str(SEEDS)]
