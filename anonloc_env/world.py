@@ -20,7 +20,13 @@ Design notes:
   the command through the force that gives it in one sub-step (``damping = 0`` so the velocity
   is exactly ``f * h``), lets pymunk detect contacts and solve the velocities against them, and
   then moves every robot by its *solved* velocity itself (positions written back, velocities
-  zeroed so pymunk's own next integration only applies its position correction).
+  zeroed so that pymunk's own next integration moves nothing).
+* Solid robots: after the move, :class:`anonloc_env.separation.Separator` pushes apart the
+  robots that still overlap (pymunk's solver does not converge in a wedged crowd, does not see
+  turns, and sees a new contact only a sub-step late) until no pair overlaps by more than 3 % of
+  the size (a bounded number of projections; see that module). pymunk's own position correction
+  is off: it would correct the same overlaps a second time. Candidate pairs come from sensor
+  shapes in pymunk's broad phase.
 * The walls are also a hard limit: after every sub-step a robot is clamped so that its shape
   reaches at most ``_WALL_TOLERANCE`` of its size into a wall, whatever the push. No robot ever
   leaves the arena, in any configuration.
@@ -39,6 +45,7 @@ import pymunk.batch as pmb
 
 from anonloc_env.config import EnvConfig, placement_spacing, substeps_needed
 from anonloc_env.overlap import robot_overlaps, wall_overlaps
+from anonloc_env.separation import SOLID, Separator
 
 #: A robot whose sub-step displacement differs from its command by more than this fraction of
 #: its size was pushed or blocked by a contact: its bumper fires.
@@ -48,8 +55,6 @@ _FORCE_FIELDS = pmb.BodyFields.FORCE
 _STATE_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE | pmb.BodyFields.VELOCITY
 #: One ``(x, y, theta, vx, vy)`` row: ``np.frombuffer`` with it gives ``(N, 5)`` arrays directly.
 _STATE = np.dtype((np.float64, 5))
-#: Fraction of the overlap of two shapes removed at every sub-step (pymunk's position correction).
-_OVERLAP_CORRECTION = 0.5
 #: pymunk's solver iterations per sub-step (its default, 10).
 _SOLVER_ITERATIONS = 10
 #: How deep (fraction of the robot size) a shape may reach into a wall before it is clamped: a
@@ -161,7 +166,8 @@ class World:
         space.damping = 0.0  # a body's velocity before the solve is exactly force * h (mass 1)
         space.iterations = _SOLVER_ITERATIONS
         space.collision_slop = robot.size * 1e-3
-        space.collision_bias = (1.0 - _OVERLAP_CORRECTION) ** (1.0 / self.substep_dt)
+        # pymunk's position correction off (bias 1: no overlap removed); the Separator does it.
+        space.collision_bias = 1.0
         self.space = space
 
         bodies = []
@@ -175,11 +181,16 @@ class World:
                 shape = pymunk.Circle(body, robot.size / 2.0)
             shape.friction = 0.0
             shape.elasticity = 0.0
+            shape.filter = SOLID
             space.add(body, shape)
             bodies.append(body)
         self._add_walls()
         self._bodies = bodies  # keeps the Python wrappers alive next to the C bodies
         self._check_body_order(bodies)
+        # A robot moves at most ``reach`` in a sub-step (corners included); with the pushes of
+        # a crowd, twice that is the sensor margin (see anonloc_env.separation).
+        reach = (robot.v_max + robot.omega_max * robot.radius) * self.substep_dt
+        self.separator = Separator(space, bodies, robot, margin=2.0 * reach)
 
         # (N + 1, 2) forces and (N + 1, 5) states: robots first, the static body last (its row
         # stays zero: it sits at the origin, at rest).
@@ -190,6 +201,7 @@ class World:
         self._fx, self._fy = self._force[: self.n].T
         self._x, self._y, self._theta = self._state[: self.n, :3].T
         self._pose_rows = self._state[: self.n, :3]
+        self._xy = self._state[: self.n, :2]
         # A numpy scalar: comparing an array with a Python float costs a conversion per call.
         self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
         self._inv_h = np.float64(1.0 / self.substep_dt)
@@ -211,6 +223,7 @@ class World:
             wall = pymunk.Segment(self.space.static_body, a, b, r)
             wall.friction = 0.0
             wall.elasticity = 0.0
+            wall.filter = SOLID
             self.space.add(wall)
 
     def _check_body_order(self, bodies: list[pymunk.Body]) -> None:
@@ -227,10 +240,10 @@ class World:
     def step(self, v: np.ndarray, w: np.ndarray) -> WheelTravel:
         """Hold commands ``v`` (m/s) and ``w`` (rad/s), arrays of shape ``(N,)``, for one ``dt``.
 
-        Each sub-step: the command as a force, pymunk's step (position correction, contacts,
-        velocity solve), then the move by the solved velocities, clamped to the arena (see the
-        module). The arithmetic works on 1-D columns: numpy is slower on 2-D strided blocks and
-        broadcasts than on a few more 1-D calls.
+        Each sub-step: the command as a force, pymunk's step (contacts, velocity solve), then
+        the move by the solved velocities, clamped to the arena, and the separation of the
+        robots that still overlap (see the module). The arithmetic works on 1-D columns: numpy
+        is slower on 2-D strided blocks and broadcasts than on a few more 1-D calls.
         """
         h = self.substep_dt
         fx, fy, inv_h = self._fx, self._fy, self._inv_h
@@ -253,6 +266,7 @@ class World:
             y += state[:, 1]
             np.add(state[:, 2], turn, out=self._theta)
             self._clamp_to_arena()
+            self.separator.separate(self._xy, self._theta, self._clamp_to_arena)
             self.batch.write_state()
             new = self._pose_rows.copy()
             delta = new - poses

@@ -3,9 +3,12 @@
 Each step, with the space settings and the solve-then-move order of ``anonloc_env.world``: compute
 the forces that ask for the commanded velocities from an ``(N, 2)`` command array and write them
 with ``pymunk.batch``, step the space once, read the poses and solved velocities back, move the
-robots by those velocities and write the poses back (velocities zeroed), shuffle a picture
-every ``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
-env's) from views of shared arrays. No validation, odometry, rewards, infos or schedule.
+robots by those velocities, push apart the robots that overlap (the world's own
+:class:`anonloc_env.separation.Separator`, with its sensor shapes in the space: solid robots are
+part of the design) and write the poses back (velocities zeroed), shuffle a picture every
+``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
+env's) from views of shared arrays. No validation, odometry, rewards, infos, schedule or wall
+clamp.
 
 The env cannot be faster than this; ``bench_env.py`` reports the env's speed as a fraction of it.
 """
@@ -18,6 +21,9 @@ import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
+from anonloc_env.config import RobotConfig
+from anonloc_env.separation import SOLID, Separator
+
 
 class LimitLoop:
     """A bare pymunk loop over ``n`` square robots in an arena of side ``side`` (m)."""
@@ -27,17 +33,26 @@ class LimitLoop:
         self.rng = np.random.default_rng(seed)
         self.space = pymunk.Space(threaded=False)
         self.space.damping = 0.0  # as in anonloc_env.world: velocity before the solve = force * dt
-        self.space.collision_slop = 0.2 * 1e-3
-        self.space.collision_bias = 0.5 ** (1.0 / dt)
+        robot = RobotConfig()  # the default robot, as in the benchmark's env
+        self.space.collision_slop = robot.size * 1e-3
+        self.space.collision_bias = 1.0  # pymunk's position correction off: the Separator's job
         grid = math.ceil(math.sqrt(n))
+        bodies = []
         for i in range(n):
             body = pymunk.Body(1.0, math.inf)
             body.position = ((i % grid + 0.5) * side / grid, (i // grid + 0.5) * side / grid)
-            self.space.add(body, pymunk.Poly.create_box(body, (0.2, 0.2)))
-        r = 0.1
+            box = pymunk.Poly.create_box(body, (robot.size, robot.size))
+            box.filter = SOLID
+            self.space.add(body, box)
+            bodies.append(body)
+        r = robot.size / 2.0
         corners = [(-r, -r), (side + r, -r), (side + r, side + r), (-r, side + r)]
         for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
-            self.space.add(pymunk.Segment(self.space.static_body, a, b, r))
+            wall = pymunk.Segment(self.space.static_body, a, b, r)
+            wall.filter = SOLID
+            self.space.add(wall)
+        reach = (robot.v_max + robot.omega_max * robot.radius) * dt
+        self.separator = Separator(self.space, bodies, robot, margin=2.0 * reach)
         buf = pmb.Buffer()
         pmb.get_space_bodies(self.space, pmb.BodyFields.BODY_ID, buf)
         ids = np.frombuffer(buf.int_buf(), dtype=np.uintp)
@@ -72,6 +87,7 @@ class LimitLoop:
         state = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 5)[:n]
         self.state[:n, :2] = state[:, :2] + state[:, 3:] * self.dt
         self.state[:n, 2] = state[:, 2] + commands[:, 1] * self.dt
+        self.separator.separate(self.state[:n, :2], self.state[:n, 2], _no_clamp)
         pmb.set_space_bodies(self.space, fields, self.state_buf)
         self.poses = self.state[:n, :3].copy()
         self.steps += 1
@@ -97,3 +113,7 @@ class LimitLoop:
                 self.agents, list(odometry), list(bumper), self.between_rows, strict=True
             )
         }
+
+
+def _no_clamp() -> None:
+    """The limit loop keeps robots in the arena by pymunk's walls alone."""

@@ -69,7 +69,42 @@ def test_crowd_stays_inside_the_arena() -> None:
         poses = env.world.poses
         assert wall_overlaps(robot, env.config.arena_size, poses).max() <= 0.0501 * robot.size
         _, _, depth = robot_overlaps(robot, poses)
-        assert depth.max(initial=0.0) < 0.5 * robot.size  # never enough to swap
+        assert depth.max(initial=0.0) <= 0.10 * robot.size
+
+
+def _steer_to_corner(poses: np.ndarray) -> np.ndarray:
+    """Full speed, turning towards (0, 0) as fast as allowed (benchmarks/robustness.py corner)."""
+    x, y, theta = poses.T
+    error = (np.arctan2(-y, -x) - theta + np.pi) % (2 * np.pi) - np.pi
+    return np.column_stack([np.ones(len(x)), np.clip(3.0 * error, -1.0, 1.0)]).astype(np.float32)
+
+
+@pytest.mark.parametrize("shape", ["square", "circle"])
+def test_crowd_driven_into_a_corner_overlaps_at_most_a_tenth(shape: str) -> None:
+    """100 robots of the default size, all driven into one corner of the 4 m arena for 15 s:
+    the pile is pressed against both walls and squares turn inside it (it reached 48 % of the
+    size before the position correction)."""
+    n = 100
+    env = anonloc_env.parallel_env(
+        n_robots=n,
+        arena_size=(4.0, 4.0),
+        robot={"shape": shape},
+        reward_fn=anonloc_env.EnergyCost(),
+    )
+    env.reset(seed=0)
+    robot = env.config.robot
+    worst = 0.0
+    for _ in range(300):
+        env.step(dict(zip(env.agents, _steer_to_corner(env.world.poses), strict=True)))
+        _, _, depth = robot_overlaps(robot, env.world.poses)
+        worst = max(worst, float(depth.max(initial=0.0)))
+        assert wall_overlaps(robot, env.config.arena_size, env.world.poses).max() <= (
+            0.0501 * robot.size
+        )
+    assert worst <= 0.10 * robot.size
+    # The pile did form: most robots ended within 2.5 m of the corner, pressed together.
+    assert np.mean(np.hypot(*env.world.poses[:, :2].T) < 2.5) > 0.8
+    assert len(robot_overlaps(robot, env.world.poses)[0]) > n // 2
 
 
 # -- configs the validator accepts must work -------------------------------------------------------
