@@ -96,6 +96,11 @@ def _distances(model: SensorModel, rows: list[np.ndarray], intervals: list[Inter
 CASES = {
     "clean": (_model(), 5, 0.0),
     "misses-and-clutter": (_model(p_detect=0.85), 4, 1.0),
+    "misses-and-clutter-robots-counted": (
+        _model(p_detect=0.85, n_robots=4, false_positives=1.0),
+        4,
+        1.0,
+    ),
     "headings": (_model(orientation=True, orientation_noise=math.radians(3.0)), 4, 0.5),
     "tilted": (_model(scale_spread=0.02), 5, 0.0),
 }

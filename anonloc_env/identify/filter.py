@@ -9,7 +9,13 @@ import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
-from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
+from anonloc_env.identify.model import (
+    GATE_SIGMAS,
+    SensorModel,
+    log_background,
+    push_isotropic,
+    ring_loglik,
+)
 from anonloc_env.identify.tracks import (
     Child,
     Geometry,
@@ -80,7 +86,7 @@ class Identifier:
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
         n_rows = len(rows)
-        log_bg = math.log(max(n_rows - self.model.p_detect, 0.5) / self.model.image_area)
+        log_bg = log_background(self.model, n_rows)
         if self.rows is None or interval is None:
             # A first picture (or one with no known motion before it): start from "unknown".
             parts: list[Tracks] = []
