@@ -265,7 +265,7 @@ def score_linked(episode: Episode, scores: Scores, grid: int = 720) -> None:
                 )
                 carry += s * step[None]
                 var_d, _ = interval.variances(model.odometry_noise)
-                carry_var += s * s * (push_isotropic(interval)[i] + var_d[i])
+                carry_var += s * s * (push_isotropic(interval, model)[i] + var_d[i])
                 turn += float(interval.dphi[i])
                 span += 1
                 seen = ~np.isnan(pos[k, :, 0]) & ~np.isnan(last[:, 0])

@@ -199,7 +199,7 @@ class Identifier:
         model = self.model
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
-        push_iso = push_isotropic(interval)[live]
+        push_iso = push_isotropic(interval, model)[live]
         sigma = np.sqrt(
             s_high**2 * push_iso
             + 2 * pix_var
@@ -264,7 +264,7 @@ class Identifier:
             p_tt = np.full(n_par, np.inf)
         known = model.scale is not None
         pos = prev[p_row, :2].astype(np.float64)
-        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval))[slot]
+        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval, model))[slot]
         carry, turn = interval.d[slot], interval.dphi[slot].astype(np.float64)
         if model.orientation and known:  # heading and scale known: predicted, as in _missed
             pos += rotate(carry, theta) * s
@@ -298,7 +298,7 @@ class Identifier:
         kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
         predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
         var_d, var_dphi = interval.variances(self.model.odometry_noise)
-        push_var = push_isotropic(interval)
+        push_var = push_isotropic(interval, self.model)
         k = np.flatnonzero(kept & predicts)
         slot = tracks.slot[k]
         d = interval.d[slot]

@@ -15,7 +15,13 @@ from functools import cached_property
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.model import GATE_SIGMAS, LOG_2PI, SensorModel, push_isotropic
+from anonloc_env.identify.model import (
+    GATE_SIGMAS,
+    LOG_2PI,
+    SensorModel,
+    push_covariance,
+    push_isotropic,
+)
 from anonloc_env.odometry import Interval
 
 
@@ -136,6 +142,7 @@ class Geometry:
         self, parent: Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
     ) -> None:
         self.slot = slot = parent.slot
+        self.model = model
         self.interval = interval
         self.d, self.dphi = d, _ = parent.own_motion(interval)
         self.rho0 = rho0 = np.hypot(d[:, 0], d[:, 1])
@@ -157,7 +164,7 @@ class Geometry:
             self.iso_var = self.base_var
         else:
             self.pushed = interval.push[slot] > 0
-            self.iso_var = self.base_var + s**2 * push_isotropic(interval)[slot]
+            self.iso_var = self.base_var + s**2 * push_isotropic(interval, model)[slot]
 
     @cached_property
     def r(self) -> np.ndarray:
@@ -181,7 +188,7 @@ class Geometry:
 
     def push_cov(self, which: np.ndarray) -> np.ndarray:
         """``(k, 2, 2)`` unseen contact pushes (m^2, robot frame) of candidates ``which``."""
-        return self.interval.push_covariance()[self.slot[which]]
+        return push_covariance(self.interval, self.model)[self.slot[which]]
 
     def standing_loglik(self, which: np.ndarray) -> np.ndarray:
         """Log density of the displacement of a robot that did not move, for ``which``."""
