@@ -9,7 +9,6 @@ import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
-from anonloc_env.identify.links import Links, links_between
 from anonloc_env.identify.model import (
     GATE_SIGMAS,
     SensorModel,
@@ -65,10 +64,6 @@ class Identifier:
         self.uniform = np.full(self.n, -np.inf)  # log weight of each row of the newest picture
         self.unanchored = np.zeros(self.n)  # log weight of "position unknown"
         self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
-        # Log weight of each row of the newest picture for the uniform weight (which it adds
-        # to), and of the links between the previous picture and the newest.
-        self.row_bias = np.zeros(0)
-        self.links = Links.clutter(0, 0.0, 0)
         self._belief: np.ndarray | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
@@ -91,21 +86,18 @@ class Identifier:
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
         n_rows = len(rows)
+        log_bg = log_background(self.model, n_rows)
         if self.rows is None or interval is None:
             # A first picture (or one with no known motion before it): start from "unknown".
-            self.links = Links.clutter(0, log_background(self.model, n_rows), n_rows)
             parts: list[Tracks] = []
             before = np.zeros(self.n)
             unanchored = before + self.log_miss
         else:
-            self.links = links_between(self.model, self.rows, rows)
-            parts, unanchored = self._extend(rows, interval)
+            parts, unanchored = self._extend(rows, interval, log_bg)
             before = self.unanchored
-        # "Position unknown" before the picture: now seen at a row (weighed by row_bias), or
-        # still unknown.
-        fresh = before + self.log_pd - math.log(self.model.image_area)
+        # "Position unknown" before the picture: now seen at any row alike, or still unknown.
+        fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
         self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
-        self.row_bias = self.links.starts
         self.unanchored = unanchored
         self.tracks = Tracks.concat(parts) if parts else Tracks.empty()
         self.rows = rows
@@ -114,7 +106,9 @@ class Identifier:
         self._compute_belief()
 
     # -- one interval ----------------------------------------------------------------------------
-    def _extend(self, rows: np.ndarray, interval: Interval) -> tuple[list[Tracks], np.ndarray]:
+    def _extend(
+        self, rows: np.ndarray, interval: Interval, log_bg: float
+    ) -> tuple[list[Tracks], np.ndarray]:
         model = self.model
         assert self.rows is not None
         prev = self.rows
@@ -145,7 +139,9 @@ class Identifier:
             cand = j_pair[expand_ranges(starts, ends - starts)]
             keep = gate.passes(parent, rows[cand])
             parts.append(
-                self._children(tracks.take(parent[keep]), rows, cand[keep], interval, pix_var)
+                self._children(
+                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
+                )
             )
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
@@ -158,7 +154,9 @@ class Identifier:
             a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
             keep = gate.passes(missed[a], rows[b])
             parts.append(
-                self._children(tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var)
+                self._children(
+                    tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg
+                )
             )
         # 3. Every explicit track may be missed in the new picture.
         if len(tracks):
@@ -169,7 +167,9 @@ class Identifier:
         live = np.flatnonzero(np.isfinite(self.uniform))
         if len(live) and len(i_pair):
             parts.append(
-                self._from_uniform(live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d)
+                self._from_uniform(
+                    live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
+                )
             )
         if len(live):
             # ... or the robot was missed now: still at one of the previous rows, its own motion
@@ -178,8 +178,7 @@ class Identifier:
             if len(prev) <= MISSED_PER_ROBOT:
                 parts.append(self._uniform_missed(live, prev, interval, pix_var))
             else:
-                spread = np.logaddexp.reduce(self.row_bias + self.links.ends)
-                lost = self.uniform[live] + spread + self.log_miss
+                lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
                 unanchored[live] = np.logaddexp(unanchored[live], lost)
         return [p for p in parts if len(p)], unanchored
 
@@ -194,6 +193,7 @@ class Identifier:
         interval: Interval,
         pix_var: float,
         var_d: np.ndarray,
+        log_bg: float,
     ) -> Tracks:
         """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion."""
         model = self.model
@@ -239,11 +239,11 @@ class Identifier:
             log_s=np.full(n_par, log_scale),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
-            logw=self.uniform[slot] + self.row_bias[p_row],
+            logw=self.uniform[slot],
             carry=np.zeros((n_par, 2)),
             turn=np.zeros(n_par),
         )
-        return self._children(parent, rows, j_pair[pick], interval, pix_var)
+        return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
 
     def _uniform_missed(
         self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float
@@ -281,7 +281,7 @@ class Identifier:
             log_s=np.full(n_par, math.log(s) if known else np.nan),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
-            logw=self.uniform[slot] + self.row_bias[p_row] + self.links.ends[p_row] + self.log_miss,
+            logw=self.uniform[slot] + self.log_miss,
             carry=carry,
             turn=turn,
         )
@@ -294,8 +294,6 @@ class Identifier:
         robot's own motion carried (the next row is tested on the whole displacement). The
         weight of the other tracks returns to "position unknown"."""
         logw = tracks.logw + self.log_miss
-        seen = tracks.row >= 0
-        logw[seen] += self.links.ends[tracks.row[seen]]
         # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
         kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
         predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
@@ -344,6 +342,7 @@ class Identifier:
         cand: np.ndarray,
         interval: Interval,
         pix_var: float,
+        log_bg: float,
     ) -> Tracks:
         """Extend each parent track by candidate row ``cand`` (same length): weight and state."""
         model = self.model
@@ -381,11 +380,7 @@ class Identifier:
         # The detected heading, if any, is one more measurement.
         if model.orientation:
             orientation(z[:, 2], self._theta_var(), child.theta, child.p_tt, child.loglik)
-        anchored = parent.row >= 0
-        link = self.links.starts[cand]
-        if anchored.any():
-            link[anchored] = self.links.pair(parent.row[anchored], cand[anchored])
-        logw = parent.logw + self.log_pd + child.loglik + link
+        logw = parent.logw + self.log_pd + child.loglik - log_bg
         # Children more than PRUNE_NATS below their robot's best child are pruned later anyway
         # (the best over all hypotheses is at least as high): drop them before they are copied.
         # Parents come grouped by robot, so the best child of each robot is a reduceat.
@@ -412,7 +407,7 @@ class Identifier:
     def _normalise_and_prune(self) -> None:
         tracks = self.tracks
         n_rows = 0 if self.rows is None else len(self.rows)
-        log_rows = float(np.logaddexp.reduce(self.row_bias)) if n_rows else -np.inf
+        log_rows = math.log(n_rows) if n_rows else -np.inf
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
         if len(tracks):
@@ -455,9 +450,7 @@ class Identifier:
         seen = tracks.row >= 0
         flat = tracks.slot[seen] * n_rows + tracks.row[seen]
         belief = np.bincount(flat, weights=weights[seen], minlength=self.n * n_rows)
-        belief = belief.reshape(self.n, n_rows) + np.exp(
-            self.uniform[:, None] + self.row_bias[None, :]
-        )
+        belief = belief.reshape(self.n, n_rows) + np.exp(self.uniform)[:, None]
         missing = np.exp(self.unanchored) + np.bincount(
             tracks.slot[~seen], weights=weights[~seen], minlength=self.n
         )

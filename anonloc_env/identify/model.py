@@ -39,9 +39,6 @@ class SensorModel:
             probability ``p_detect``, plus Poisson false positives; without it they are Poisson
             clutter whose mean is estimated from the row count (see :func:`log_background`).
         false_positives: mean number of false detections per picture (used with ``n_robots``).
-        others_reach: how far (m) any robot may move between two consecutive pictures, or
-            ``None``. With it and ``n_robots``, the other robots persist from picture to picture
-            (see :mod:`anonloc_env.identify.links`) instead of being clutter drawn afresh.
         push_share: the covariance of what contacts moved a robot unseen, as a share of
             :meth:`Interval.push_covariance` (a push spread evenly up to its bound), in (0, 1].
             ``from_config`` sets :data:`PUSH_SHARE`, measured.
@@ -59,7 +56,6 @@ class SensorModel:
     n_robots: int | None = None
     false_positives: float = 0.0
     push_share: float = 1.0
-    others_reach: float | None = None
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -79,8 +75,6 @@ class SensorModel:
             raise ValueError(f"n_robots must be an integer >= 1 or None, got {self.n_robots!r}")
         check_number("false_positives", self.false_positives, 0.0)
         check_number("push_share", self.push_share, 0.0, 1.0, low_open=True)
-        if self.others_reach is not None:
-            check_number("others_reach", self.others_reach, 0.0, low_open=True)
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
@@ -112,11 +106,6 @@ class SensorModel:
             n_robots=config.n_robots,
             false_positives=cam.false_positives,
             push_share=PUSH_SHARE,
-            # Top speed over the longest gap between pictures, and pushes of up to a quarter
-            # of it on top (see push_bound).
-            others_reach=1.25
-            * config.robot.v_max
-            * (config.schedule.picture_interval + 2.0 * config.schedule.jitter),
         )
 
     @property
