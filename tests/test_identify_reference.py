@@ -121,12 +121,8 @@ def test_identifier_matches_the_exact_posterior(model: SensorModel, n: int, fp: 
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured 81.9 % of robot-pictures within 0.01 (6 seeds); the scale-free first leg "
-    "(log-uniform length, hard 5-sigma edges, linearised log s) not yet diagnosed",
-)
 def test_identifier_matches_the_exact_posterior_scale_unknown() -> None:
+    """Scale unknown (0.5x to 2x, the truth 0.8x): within 0.01 on 95 % of robot-pictures."""
     model = _model(scale=None, pixel_noise=2.0)
     tv = np.concatenate(
         [

@@ -360,15 +360,16 @@ class Identifier:
             child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
             learn = a & ~geo.still & (geo.r > 0)
             child.heading_from_displacement(learn, geo)
-        # C. heading and scale unknown: any length in the scale range, log-uniform scale.
+        # C. heading and scale unknown: the ring over a log-uniform scale.
         c = ~heading_known & ~scale_known
         if c.any():
             scale_free(c, geo, child, s_low, s_high)
             learn = c & ~geo.still & (geo.r > 0)
             child.heading_from_displacement(learn, geo)
-            child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
-            child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
-            child.p_ts[learn] = 0.0
+            # Too little motion to learn the heading from: the scale stays unknown too.
+            unlearnt = c & ~learn
+            child.log_s[unlearnt] = np.nan
+            child.p_ss[unlearnt] = np.inf
         # D. heading known, scale unknown: the direction is tested, the length sets the scale.
         dd = heading_known & ~scale_known
         if dd.any():
