@@ -157,18 +157,28 @@ def log_background(model: SensorModel, n_rows: int) -> float:
 
 def _log_count(k: int, others: int, p: float, rate: float) -> float:
     """``log P(Binomial(others, p) + Poisson(rate) = k)``."""
-    j = np.arange(min(k, others) + 1, dtype=np.float64)
-    log_binom = (
-        math.lgamma(others + 1)
-        - np.array([math.lgamma(x + 1) + math.lgamma(others - x + 1) for x in j])
+    log_fact = _log_factorials(max(k, others))
+    j = np.arange(min(k, others) + 1)
+    rest = k - j
+    terms = (
+        log_fact[others]
+        - log_fact[j]
+        - log_fact[others - j]
         + j * math.log(p)
         + (others - j) * math.log1p(-p)
+        + rest * math.log(rate)
+        - rate
+        - log_fact[rest]
     )
-    rest = k - j
-    log_poisson = rest * math.log(rate) - rate - np.array([math.lgamma(x + 1) for x in rest])
-    terms = log_binom + log_poisson
     top = float(terms.max())
     return top + math.log(float(np.exp(terms - top).sum()))
+
+
+def _log_factorials(n: int) -> np.ndarray:
+    """``log(m!)`` for ``m = 0 .. n``."""
+    out = np.zeros(n + 1)
+    np.cumsum(np.log(np.arange(1, n + 1)), out=out[1:])
+    return out
 
 
 def push_covariance(interval: Interval, model: SensorModel) -> np.ndarray:
