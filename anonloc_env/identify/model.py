@@ -40,7 +40,8 @@ class SensorModel:
             clutter whose mean is estimated from the row count (see :func:`log_background`).
         false_positives: mean number of false detections per picture (used with ``n_robots``).
         push_share: the covariance of what contacts moved a robot unseen, as a share of
-            :meth:`Interval.push_covariance` (a push spread evenly up to its bound), in (0, 1].
+            :meth:`anonloc_env.odometry.Interval.push_covariance` (a push spread evenly up to its
+            bound), in (0, 1].
             ``from_config`` sets :data:`PUSH_SHARE`, measured.
     """
 
