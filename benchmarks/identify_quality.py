@@ -17,9 +17,17 @@ Scenarios:
   unknown, and ``motion3``.
 * ``headings``: N = 100, the default camera (detected headings), no clutter: for calibration.
 
+With ``--linked``, each scenario also prints an upper bound on what the pictures allow: the
+posterior of a robot that knows which rows belong to one robot (the true tracks, false positives
+removed) and must only say which track is its own, under the identifier's own motion model (the
+heading integrated on a grid, the legs' noise and pushes as the identifier models them, each leg
+weighed against a robot driving anywhere within its top speed). No identifier that does not know
+the linking can beat it on average. Printed for the scenarios with the scale known and no
+detected headings (it uses positions alone).
+
 Usage: ``python benchmarks/identify_quality.py [--scenarios dense,clutter] [--episodes K]
-[--json out.json]``; ``python benchmarks/plot_reliability.py out.json docs/assets/x.png`` draws
-the reliability diagram from the JSON.
+[--linked] [--json out.json]``; ``python benchmarks/plot_reliability.py out.json
+docs/assets/x.png`` draws the reliability diagram from the JSON.
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ import anonloc_env
 import baselines
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
+from anonloc_env.identify.model import push_isotropic
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer, Motion3Localizer
 from baselines.paper import wilson
@@ -222,6 +231,64 @@ def score_motion3(episode: Episode, scores: Scores) -> None:
     scores.first_total += int((first >= 0).sum())
 
 
+def score_linked(episode: Episode, scores: Scores, grid: int = 720) -> None:
+    """The linked upper bound (see the module docstring): right at picture k when the robot's
+    posterior over the true tracks puts >= 0.99 on its own. Scale known only."""
+    config = episode.config
+    model = SensorModel.from_config(config)
+    assert model.scale is not None
+    s, n = model.scale, config.n_robots
+    base = 2.0 * model.pixel_noise**2 + 1e-8
+    theta0 = -math.pi + (np.arange(grid) + 0.5) * (2.0 * math.pi / grid)
+    pos = np.full((len(episode.observed), n, 2), np.nan)
+    for k, ((rows, _, _), true) in enumerate(zip(episode.observed, episode.true_rows, strict=True)):
+        pos[k, true >= 0] = rows[true[true >= 0], :2]
+    reach = s * config.robot.v_max * config.schedule.picture_interval
+    for i in range(n):
+        loglik = np.zeros((n, grid))
+        last = pos[0].copy()
+        carry = np.zeros((n, grid, 2))
+        carry_var = np.zeros(n)
+        span = np.zeros(n)
+        turn = 0.0
+        for k, ((_, interval, _), true) in enumerate(
+            zip(episode.observed, episode.true_rows, strict=True)
+        ):
+            if k > 0:
+                assert interval is not None
+                d, heading = interval.d[i], theta0 + turn
+                step = np.stack(
+                    [
+                        np.cos(heading) * d[0] - np.sin(heading) * d[1],
+                        np.sin(heading) * d[0] + np.cos(heading) * d[1],
+                    ],
+                    axis=-1,
+                )
+                carry += s * step[None]
+                var_d, _ = interval.variances(model.odometry_noise)
+                carry_var += s * s * (push_isotropic(interval, model)[i] + var_d[i])
+                turn += float(interval.dphi[i])
+                span += 1
+                seen = ~np.isnan(pos[k, :, 0]) & ~np.isnan(last[:, 0])
+                e = pos[k, seen][:, None, :] - last[seen][:, None, :] - carry[seen]
+                var = (base + carry_var[seen])[:, None]
+                leg = -math.log(2 * math.pi) - np.log(var) - (e**2).sum(-1) / (2 * var)
+                loglik[seen] += leg + np.log(math.pi * (reach * span[seen]) ** 2)[:, None]
+                now = ~np.isnan(pos[k, :, 0])
+                last[now], carry[now], carry_var[now], span[now] = pos[k, now], 0.0, 0.0, 0.0
+            if true[i] < 0:
+                continue
+            logw = np.logaddexp.reduce(loglik, axis=1)
+            w = np.exp(logw - logw.max())
+            w /= w.sum()
+            best = int(np.argmax(w))
+            scores.present[k] += 1
+            if w[best] >= THRESHOLD:
+                scores.decided += 1
+                scores.right[k] += int(best == i)
+                scores.wrong += int(best != i)
+
+
 def _rate(successes: int, trials: int) -> str:
     if trials == 0:
         return "n/a"
@@ -244,13 +311,16 @@ def reliability(scores: Scores) -> list[tuple[float, float, int, float, float]]:
     return out
 
 
-def run_scenario(name: str, episodes: int | None = None) -> dict[str, Any]:
-    """Record and score ``episodes`` episodes of scenario ``name``."""
+def run_scenario(name: str, episodes: int | None = None, linked: bool = False) -> dict[str, Any]:
+    """Record and score ``episodes`` episodes of scenario ``name`` (and the linked bound)."""
     scenario = SCENARIOS[name]
     count = scenario.episodes if episodes is None else episodes
     env = make_env(scenario)
     scores = Scores(scenario.pictures)
     m3 = Scores(scenario.pictures)
+    bound = Scores(scenario.pictures)
+    # The bound uses positions alone: it is one only where headings are not detected.
+    linked = linked and scenario.scale_known and not SensorModel.from_config(env.config).orientation
     ident_s = 0.0
     start = time.perf_counter()
     for seed in range(count):
@@ -258,6 +328,8 @@ def run_scenario(name: str, episodes: int | None = None) -> dict[str, Any]:
         ident_s += score_identifier(episode, scores, scenario.scale_known)
         if scenario.motion3:
             score_motion3(episode, m3)
+        if linked:
+            score_linked(episode, bound)
     return {
         "scenario": name,
         "episodes": count,
@@ -266,6 +338,10 @@ def run_scenario(name: str, episodes: int | None = None) -> dict[str, Any]:
         },
         "wrong": [scores.wrong, scores.decided],
         "motion3_first": [m3.first_right, m3.first_total] if scenario.motion3 else None,
+        "linked": {k: [int(bound.right[k - 1]), int(bound.present[k - 1])] for k in scenario.report}
+        if linked
+        else None,
+        "linked_wrong": [bound.wrong, bound.decided] if linked else None,
         "reliability": reliability(scores),
         "identifier_s": ident_s,
         "wall_s": time.perf_counter() - start,
@@ -275,12 +351,17 @@ def run_scenario(name: str, episodes: int | None = None) -> dict[str, Any]:
 def print_result(result: dict[str, Any]) -> None:
     """Print one scenario's table."""
     print(f"\n### {result['scenario']} ({result['episodes']} episodes)\n")
-    print("| picture | right at >= 0.99 (95 % Wilson) | robots in picture |")
-    print("|---:|---:|---:|")
+    linked = result.get("linked")
+    print("| picture | right at >= 0.99 (95 % Wilson) | robots in picture | linked bound |")
+    print("|---:|---:|---:|---:|")
     for k, (right, present) in result["right"].items():
-        print(f"| {k} | {_rate(right, present)} | {present} |")
+        bound = _rate(*linked[k]) if linked else "-"
+        print(f"| {k} | {_rate(right, present)} | {present} | {bound} |")
     wrong, decided = result["wrong"]
     print(f"\nwrong among decisions at >= 0.99: {wrong} / {decided} ({_rate(wrong, decided)})")
+    if linked:
+        wrong, decided = result["linked_wrong"]
+        print(f"linked bound: wrong among its decisions at >= 0.99: {wrong} / {decided}")
     if result["motion3_first"] is not None:
         right, total = result["motion3_first"]
         print(f"motion3 right at its first decision: {_rate(right, total)} of {total}")
@@ -302,13 +383,14 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
     parser.add_argument("--episodes", type=int, default=None, help="default: the scenario's own")
+    parser.add_argument("--linked", action="store_true", help="also the linked upper bound")
     parser.add_argument("--json", default=None, help="also write the results to this file")
     args = parser.parse_args(argv)
     results = []
     for name in args.scenarios.split(","):
         if name not in SCENARIOS:
             parser.error(f"unknown scenario {name!r}; valid: {list(SCENARIOS)}")
-        result = run_scenario(name, args.episodes)
+        result = run_scenario(name, args.episodes, args.linked)
         print_result(result)
         results.append(result)
     if args.json:

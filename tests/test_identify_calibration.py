@@ -42,10 +42,12 @@ def _top_beliefs(
     return np.concatenate(top), np.concatenate(right)
 
 
-#: Measured (80 seeds): with several robots and misses, beliefs in [0.9, 0.99) average 0.958
-#: but the top row is right 82.4 % of the time (in [0.5, 0.9): 0.68 against 0.57). One robot in
-#: Poisson clutter with misses (the model exactly) is calibrated, so the gap is the model's
-#: treatment of the other robots as clutter independent from picture to picture.
+#: Measured (80 seeds): with several robots and misses, beliefs in [0.9, 0.99) average 0.957
+#: but the top row is right 86.4 % of the time (82.4 % before the count of other detections was
+#: modelled as the other robots', see ``log_background``; in [0.5, 0.9): 0.68 against 0.57).
+#: The exact reference on the same kind of cases (6 robots, 5 pictures, 40 seeds) is as
+#: overconfident (0.955 against 0.766), so the gap is the model, not the filter: it treats the
+#: other robots' positions as clutter drawn afresh at every picture, while they persist.
 OTHER_ROBOTS_PERSIST = pytest.mark.xfail(
     strict=True, reason="other robots are modelled as independent clutter; they persist"
 )
@@ -62,7 +64,7 @@ OTHER_ROBOTS_PERSIST = pytest.mark.xfail(
 )
 def test_beliefs_are_calibrated(n: int, p_detect: float, fp: float, seeds: int) -> None:
     """In every bin with enough robot-pictures: accuracy within 3 sigma + 0.02 of the belief."""
-    model = _model(p_detect=p_detect, pixel_noise=2.0)
+    model = _model(p_detect=p_detect, pixel_noise=2.0, n_robots=n, false_positives=fp)
     top, right = _top_beliefs(model, n, 6, fp, seeds)
     tested = 0
     for low, high in itertools.pairwise(EDGES):

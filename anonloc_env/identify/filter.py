@@ -9,7 +9,13 @@ import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
-from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, push_isotropic, ring_loglik
+from anonloc_env.identify.model import (
+    GATE_SIGMAS,
+    SensorModel,
+    log_background,
+    push_isotropic,
+    ring_loglik,
+)
 from anonloc_env.identify.tracks import (
     Child,
     Geometry,
@@ -80,7 +86,7 @@ class Identifier:
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
         n_rows = len(rows)
-        log_bg = math.log(max(n_rows - self.model.p_detect, 0.5) / self.model.image_area)
+        log_bg = log_background(self.model, n_rows)
         if self.rows is None or interval is None:
             # A first picture (or one with no known motion before it): start from "unknown".
             parts: list[Tracks] = []
@@ -193,7 +199,7 @@ class Identifier:
         model = self.model
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
-        push_iso = push_isotropic(interval)[live]
+        push_iso = push_isotropic(interval, model)[live]
         sigma = np.sqrt(
             s_high**2 * push_iso
             + 2 * pix_var
@@ -258,7 +264,7 @@ class Identifier:
             p_tt = np.full(n_par, np.inf)
         known = model.scale is not None
         pos = prev[p_row, :2].astype(np.float64)
-        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval))[slot]
+        pos_var = pix_var + s**2 * (var_d + push_isotropic(interval, model))[slot]
         carry, turn = interval.d[slot], interval.dphi[slot].astype(np.float64)
         if model.orientation and known:  # heading and scale known: predicted, as in _missed
             pos += rotate(carry, theta) * s
@@ -292,7 +298,7 @@ class Identifier:
         kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
         predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
         var_d, var_dphi = interval.variances(self.model.odometry_noise)
-        push_var = push_isotropic(interval)
+        push_var = push_isotropic(interval, self.model)
         k = np.flatnonzero(kept & predicts)
         slot = tracks.slot[k]
         d = interval.d[slot]
@@ -354,15 +360,16 @@ class Identifier:
             child.loglik[a] = ring_loglik(geo.r[a], geo.s[a] * geo.rho0[a], geo.iso_var[a])
             learn = a & ~geo.still & (geo.r > 0)
             child.heading_from_displacement(learn, geo)
-        # C. heading and scale unknown: any length in the scale range, log-uniform scale.
+        # C. heading and scale unknown: the ring over a log-uniform scale.
         c = ~heading_known & ~scale_known
         if c.any():
             scale_free(c, geo, child, s_low, s_high)
             learn = c & ~geo.still & (geo.r > 0)
             child.heading_from_displacement(learn, geo)
-            child.log_s[learn] = np.log(geo.r[learn] / geo.rho0[learn])
-            child.p_ss[learn] = geo.iso_var[learn] / np.maximum(geo.r[learn], 1e-12) ** 2
-            child.p_ts[learn] = 0.0
+            # Too little motion to learn the heading from: the scale stays unknown too.
+            unlearnt = c & ~learn
+            child.log_s[unlearnt] = np.nan
+            child.p_ss[unlearnt] = np.inf
         # D. heading known, scale unknown: the direction is tested, the length sets the scale.
         dd = heading_known & ~scale_known
         if dd.any():

@@ -28,13 +28,15 @@ GATE_CHI2 = 2.0 * (2.0 * PRUNE_NATS + 5.0)
 def _worst_variance(
     slot: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
 ) -> np.ndarray:
-    """Per candidate robot: the displacement variance per component at the largest scale, pushes
-    spread evenly (``push^2 / 3``), without the position variance of the hypothesis."""
+    """Per candidate robot: the displacement variance per component at the largest scale, the
+    model's pushes all along one direction (``push_share push^2 / 3``), without the position
+    variance of the hypothesis."""
     s_high = model.scale_bounds[1]
     var_d, _ = interval.variances(model.odometry_noise)
     push = interval.push if interval.push is not None else np.zeros(len(interval.d))
     rho = s_high * np.hypot(interval.d[:, 0], interval.d[:, 1])
-    per_robot = pix_var + s_high**2 * (var_d + push**2 / 3.0) + (model.scale_spread * rho) ** 2
+    pushes = model.push_share * push**2 / 3.0
+    per_robot = pix_var + s_high**2 * (var_d + pushes) + (model.scale_spread * rho) ** 2
     return per_robot[slot]
 
 

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from anonloc_env.geometry import wrap_angle
-from anonloc_env.identify.model import LOG_2PI, SensorModel
+from anonloc_env.identify.model import LOG_2PI, SensorModel, log_background
 from anonloc_env.odometry import Interval
 
 #: Most tracks enumerated per robot.
@@ -46,9 +46,7 @@ def _log_weights(
     takes them (the same floors)."""
     log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
     log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
-    log_bg = [
-        math.log(max(len(rows) - model.p_detect, 0.5) / model.image_area) for rows in pictures
-    ]
+    log_bg = [log_background(model, len(rows)) for rows in pictures]
     extent = max((float(np.abs(r[:, :2]).max()) for r in pictures if len(r)), default=1.0)
     pix_var = model.pixel_noise**2 + (1e-4 + 1e-6 * extent) ** 2
     return log_pd, log_miss, log_bg, pix_var

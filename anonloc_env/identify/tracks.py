@@ -15,7 +15,14 @@ from functools import cached_property
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.model import GATE_SIGMAS, LOG_2PI, SensorModel, push_isotropic
+from anonloc_env.identify.model import (
+    GATE_SIGMAS,
+    LOG_2PI,
+    SensorModel,
+    push_covariance,
+    push_isotropic,
+    ring_loglik,
+)
 from anonloc_env.odometry import Interval
 
 
@@ -136,6 +143,7 @@ class Geometry:
         self, parent: Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
     ) -> None:
         self.slot = slot = parent.slot
+        self.model = model
         self.interval = interval
         self.d, self.dphi = d, _ = parent.own_motion(interval)
         self.rho0 = rho0 = np.hypot(d[:, 0], d[:, 1])
@@ -157,7 +165,7 @@ class Geometry:
             self.iso_var = self.base_var
         else:
             self.pushed = interval.push[slot] > 0
-            self.iso_var = self.base_var + s**2 * push_isotropic(interval)[slot]
+            self.iso_var = self.base_var + s**2 * push_isotropic(interval, model)[slot]
 
     @cached_property
     def r(self) -> np.ndarray:
@@ -181,7 +189,7 @@ class Geometry:
 
     def push_cov(self, which: np.ndarray) -> np.ndarray:
         """``(k, 2, 2)`` unseen contact pushes (m^2, robot frame) of candidates ``which``."""
-        return self.interval.push_covariance()[self.slot[which]]
+        return push_covariance(self.interval, self.model)[self.slot[which]]
 
     def standing_loglik(self, which: np.ndarray) -> np.ndarray:
         """Log density of the displacement of a robot that did not move, for ``which``."""
@@ -221,21 +229,38 @@ class Child:
         )
 
 
+#: Quadrature points per standard deviation of the narrowest likelihood in log s (and at most
+#: :data:`SCALE_POINTS_MAX` in all) for the first leg with the scale unknown.
+SCALE_POINTS_PER_SIGMA = 3.0
+SCALE_POINTS_MAX = 512
+
+
 def scale_free(mask: np.ndarray, geo: Geometry, child: Child, s_low: float, s_high: float) -> None:
-    """Heading and scale unknown: any displacement length in the scale range, log-uniform
-    scale, uniform direction (a robot that did not move: the standing density)."""
-    moving = mask & ~geo.still
-    width = math.log(s_high / s_low) if s_high > s_low else 1e-9
-    rr = np.maximum(geo.r[moving], 1e-12)
-    sigma = np.sqrt(geo.iso_var[moving])
-    rho0 = geo.rho0[moving]
-    inside = (rr >= s_low * rho0 - GATE_SIGMAS * sigma) & (
-        rr <= s_high * rho0 + GATE_SIGMAS * sigma
-    )
-    # Density of a 2-D displacement of length r in a uniform direction, r log-uniform.
-    child.loglik[moving] = np.where(inside, -LOG_2PI - 2.0 * np.log(rr) - math.log(width), -np.inf)
-    standing = mask & geo.still
-    child.loglik[standing] = geo.standing_loglik(standing)
+    """Heading and scale unknown: the ring density of the displacement (heading marginalised)
+    integrated over a log-uniform scale by the midpoint rule, and the scale's posterior mean and
+    variance from the same quadrature (its edges are soft, as the pixel noise makes them)."""
+    k = np.flatnonzero(mask)
+    if len(k) == 0:
+        return
+    r, rho0, var = geo.r[k], geo.rho0[k], geo.iso_var[k]
+    width = math.log(s_high / s_low) if s_high > s_low else 0.0
+    if width == 0.0:
+        log_s = np.array([math.log(s_low)])
+    else:
+        narrowest = float(np.min(np.sqrt(var) / np.maximum(s_high * rho0, 1e-12)))
+        count = min(max(math.ceil(SCALE_POINTS_PER_SIGMA * width / narrowest), 8), SCALE_POINTS_MAX)
+        log_s = math.log(s_low) + (np.arange(count) + 0.5) * (width / count)
+    ll = ring_loglik(r[:, None], np.exp(log_s)[None, :] * rho0[:, None], var[:, None])
+    top = ll.max(axis=1, keepdims=True)
+    w = np.exp(ll - top)
+    total = w.sum(axis=1)
+    child.loglik[k] = top[:, 0] + np.log(total) - math.log(len(log_s))
+    mean = (w * log_s[None, :]).sum(axis=1) / total
+    spread = (w * (log_s[None, :] - mean[:, None]) ** 2).sum(axis=1) / total
+    child.log_s[k] = mean
+    # At least the quadrature's own resolution, so that a sharp posterior is not made exact.
+    child.p_ss[k] = spread + (width / len(log_s)) ** 2 / 12.0
+    child.p_ts[k] = 0.0
 
 
 def direction_only(
