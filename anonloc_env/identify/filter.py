@@ -8,9 +8,10 @@ import math
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.gate import PRUNE_NATS, Gate, uniform_gate
+from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, Gate, uniform_gate, worst_variance
 from anonloc_env.identify.model import (
     GATE_SIGMAS,
+    LOG_2PI,
     SensorModel,
     log_background,
     push_isotropic,
@@ -133,8 +134,10 @@ class Identifier:
         gate = Gate.of(tracks, interval, model, pix_var, self._theta_var())
         anchored = np.flatnonzero(tracks.row >= 0)
         if len(anchored):
-            starts = np.searchsorted(i_pair, tracks.row[anchored], side="left")
-            ends = np.searchsorted(i_pair, tracks.row[anchored], side="right")
+            # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
+            offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
+            row = tracks.row[anchored]
+            starts, ends = offsets[row], offsets[row + 1]
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
             keep = gate.passes(parent, rows[cand])
@@ -215,6 +218,40 @@ class Identifier:
         counts = stop - start
         pick = by_length[expand_ranges(start, counts)]
         slot = np.repeat(live, counts)
+        if model.orientation and model.scale is not None:
+            # Heading and scale known: robots nothing pushed take the fused first leg.
+            pushed = np.zeros(len(live), bool) if interval.push is None else interval.push > 0
+            fused = ~pushed[slot] if interval.push is not None else slice(None)
+            first = self._first_leg(
+                slot[fused], pick[fused], i_pair, j_pair, prev, rows, interval, pix_var, log_bg
+            )
+            if interval.push is None or not pushed[live].any():
+                return first
+            general = ~fused  # type: ignore[operator]  # an array when interval.push is set
+            pick, slot = pick[general], slot[general]
+            rest = self._uniform_children(
+                slot, pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
+            )
+            return Tracks.concat([first, rest])
+        return self._uniform_children(
+            slot, pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
+        )
+
+    def _uniform_children(
+        self,
+        slot: np.ndarray,
+        pick: np.ndarray,
+        i_pair: np.ndarray,
+        j_pair: np.ndarray,
+        prev: np.ndarray,
+        rows: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """The uniform weight of robot ``slot[k]`` anchored at pair ``pick[k]``, by the general
+        path: a parent track at the pair's first row, extended by :meth:`_children`."""
+        model = self.model
         keep = uniform_gate(
             slot, pick, i_pair, j_pair, prev, rows, interval, model, pix_var, self._theta_var()
         )
@@ -244,6 +281,105 @@ class Identifier:
             turn=np.zeros(n_par),
         )
         return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
+
+    def _first_leg(
+        self,
+        slot: np.ndarray,
+        pick: np.ndarray,
+        i_pair: np.ndarray,
+        j_pair: np.ndarray,
+        prev: np.ndarray,
+        rows: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """:meth:`_uniform_children` for robots nothing pushed, heading detected, scale known.
+
+        The same gate (:func:`uniform_gate`), heading Kalman step (``_kalman_heading``) and
+        detected-heading step (:func:`orientation`), computed in the robot's frame at the pair's
+        first row: the pair is turned once, what depends on the robot alone is computed once per
+        robot, and no parent track is built (every parent has position variance ``pix_var``,
+        heading variance ``theta_var``, the known scale). Candidates are grouped by robot.
+        """
+        model = self.model
+        assert model.scale is not None
+        if len(slot) == 0:
+            return Tracks.empty()
+        s = math.exp(math.log(model.scale))  # the scale a parent track holds, as _children reads it
+        theta_var = self._theta_var()
+        n = len(interval.d)
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        dx, dy = interval.d[:, 0], interval.d[:, 1]
+        rho2 = dx**2 + dy**2
+        rho0 = np.hypot(dx, dy)
+        # Per robot: the gate's denominators, and the Kalman step's variances (see _kalman_heading).
+        gate_var = worst_variance(np.arange(n), interval, model, pix_var) + pix_var
+        gate_pos = gate_var + model.scale**2 * rho2 * theta_var
+        gate_turn = 2.0 * theta_var + var_dphi
+        b = pix_var + pix_var + s**2 * var_d + (model.scale_spread * s * rho0) ** 2
+        a = b + theta_var * (s * s * rho2)
+        p_tt1 = np.maximum(theta_var * b / a, 1e-14) + var_dphi
+        var_o = p_tt1 + theta_var
+        gain = p_tt1 / var_o
+        const = (
+            -LOG_2PI
+            - 0.5 * np.log(b * a)
+            - 0.5 * (math.log(2 * math.pi) + np.log(var_o))
+            + self.log_pd
+            - log_bg
+        )
+        # Per pair: its displacement in the frame of the heading detected at its first row.
+        theta0 = prev[i_pair, 2]
+        delta = rows[j_pair, :2] - prev[i_pair, :2]
+        c, sn = np.cos(theta0), np.sin(theta0)
+        fx_pair = c * delta[:, 0] + sn * delta[:, 1]
+        fy_pair = c * delta[:, 1] - sn * delta[:, 0]
+        turn_pair = rows[j_pair, 2] - theta0
+        # The gate, per candidate.
+        ex = fx_pair[pick] - model.scale * dx[slot]
+        ey = fy_pair[pick] - model.scale * dy[slot]
+        e2 = ex * ex + ey * ey
+        turn = wrap_angle(turn_pair[pick] - interval.dphi[slot])
+        chi2 = e2 / gate_pos[slot] + turn * turn / gate_turn[slot]
+        ok = np.flatnonzero(chi2 <= GATE_CHI2)
+        slot, pick, e2 = slot[ok], pick[ok], e2[ok]
+        if s != model.scale:
+            ex = fx_pair[pick] - s * dx[slot]
+            ey = fy_pair[pick] - s * dy[slot]
+            e2 = ex * ex + ey * ey
+        else:
+            ex, ey = ex[ok], ey[ok]
+        # The heading Kalman step, then the detected heading.
+        h_e = s * (dx[slot] * ey - dy[slot] * ex)
+        a_k, b_k = a[slot], b[slot]
+        maha = (e2 - theta_var * h_e * h_e / a_k) / b_k
+        theta1 = theta0[pick] + theta_var * h_e / a_k + interval.dphi[slot]
+        err = wrap_angle(rows[j_pair[pick], 2] - theta1)
+        var_k = var_o[slot]
+        logw = self.uniform[slot] + const[slot] - 0.5 * maha - 0.5 * (err * err / var_k)
+        theta = theta1 + gain[slot] * err
+        # Prune as _children does: more than PRUNE_NATS below the robot's best child.
+        starts = group_starts(slot)
+        best = np.maximum.reduceat(logw, starts)
+        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+        keep = np.flatnonzero(logw >= floor)
+        slot, pick = slot[keep], pick[keep]
+        count = len(keep)
+        return Tracks(
+            slot=slot,
+            row=j_pair[pick],
+            pos=rows[j_pair[pick], :2],
+            pos_var=np.full(count, pix_var),
+            theta=wrap_angle(theta[keep]),
+            p_tt=(p_tt1 * (1 - gain))[slot],
+            log_s=np.full(count, math.log(s)),
+            p_ts=np.zeros(count),
+            p_ss=np.zeros(count),
+            logw=logw[keep],
+            carry=np.zeros((count, 2)),
+            turn=np.zeros(count),
+        )
 
     def _uniform_missed(
         self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float

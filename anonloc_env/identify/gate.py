@@ -25,7 +25,7 @@ PRUNE_NATS = 15.0
 GATE_CHI2 = 2.0 * (2.0 * PRUNE_NATS + 5.0)
 
 
-def _worst_variance(
+def worst_variance(
     slot: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
 ) -> np.ndarray:
     """Per candidate robot: the displacement variance per component at the largest scale, the
@@ -70,7 +70,7 @@ class Gate:
         slot = tracks.slot
         d, dphi = tracks.own_motion(interval)
         rho0 = np.hypot(d[:, 0], d[:, 1])
-        var = _worst_variance(slot, interval, model, pix_var) + tracks.pos_var
+        var = worst_variance(slot, interval, model, pix_var) + tracks.pos_var
         _, var_dphi = interval.variances(model.odometry_noise)
         has_theta = np.isfinite(tracks.theta)
         has_scale = np.isfinite(tracks.log_s)
@@ -131,7 +131,7 @@ def uniform_gate(
         return np.ones(len(slot), dtype=bool)  # the length window is the whole test
     s = model.scale
     d = interval.d[slot]
-    var = _worst_variance(slot, interval, model, pix_var) + pix_var
+    var = worst_variance(slot, interval, model, pix_var) + pix_var
     delta = rows[j_pair, :2] - prev[i_pair, :2]
     if not model.orientation:
         length = np.hypot(delta[:, 0], delta[:, 1])[pair] - s * np.hypot(d[:, 0], d[:, 1])
