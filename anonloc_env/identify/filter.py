@@ -154,11 +154,15 @@ class Identifier:
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
             keep = gate.passes(parent, rows[cand])
-            parts.append(
-                self._children(
+            if gate.moved is not None:
+                children = self._known_children(
+                    tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, log_bg
+                )
+            else:
+                children = self._children(
                     tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
                 )
-            )
+            parts.append(children)
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
@@ -565,6 +569,85 @@ class Identifier:
             logw=logw[keep],
             carry=np.zeros((len(keep), 2)),
             turn=np.zeros(len(keep)),
+        )
+
+    def _known_children(
+        self,
+        tracks: Tracks,
+        gate: Gate,
+        parent: np.ndarray,
+        rows: np.ndarray,
+        cand: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """:meth:`_children` of tracks ``parent`` (indices into ``tracks``) when every track
+        knows its heading and scale and carries no motion (``gate.moved`` is set): the same
+        arithmetic, the prediction ``s R(theta) d`` taken from the gate, and only the fields
+        the Kalman step reads gathered. Candidates with a push or an estimated scale take the
+        general :func:`kalman`."""
+        model = self.model
+        if len(cand) == 0:
+            return Tracks.empty()
+        assert gate.moved is not None
+        assert gate.scale is not None
+        assert gate.rho0 is not None
+        slot = tracks.slot[parent]
+        z = rows[cand]
+        var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
+        s, rho0 = gate.scale[parent], gate.rho0[parent]
+        th, ptt = tracks.theta[parent], tracks.p_tt[parent]
+        log_s, p_ts, p_ss = tracks.log_s[parent], tracks.p_ts[parent], tracks.p_ss[parent]
+        # _kalman_heading, with Geometry's base variance.
+        b = (
+            pix_var
+            + tracks.pos_var[parent]
+            + s**2 * var_d_all[slot]
+            + (model.scale_spread * s * rho0) ** 2
+        )
+        px, py = gate.moved[parent, 0], gate.moved[parent, 1]
+        pos = tracks.pos[parent]
+        ex = (z[:, 0] - pos[:, 0]) - px
+        ey = (z[:, 1] - pos[:, 1]) - py
+        h_e = px * ey - py * ex
+        a = b + ptt * (px * px + py * py)
+        maha = (ex * ex + ey * ey - ptt * h_e * h_e / a) / b
+        loglik = -LOG_2PI - 0.5 * np.log(b * a) - 0.5 * maha
+        theta = th + ptt * h_e / a + interval.dphi[slot]
+        p_tt = np.maximum(ptt * b / a, 1e-14) + var_dphi_all[slot]
+        general = (p_ss != 0.0) | (p_ts != 0.0)
+        if interval.push is not None:
+            general |= interval.push[slot] > 0
+        if general.any():
+            g = np.flatnonzero(general)
+            sub = tracks.take(parent[g])
+            child = Child.start(sub)
+            kalman(np.ones(len(g), bool), Geometry(sub, z[g], interval, model, pix_var), sub, child)
+            loglik[g], theta[g], p_tt[g] = child.loglik, child.theta, child.p_tt
+            log_s[g], p_ts[g], p_ss[g] = child.log_s, child.p_ts, child.p_ss
+        if model.orientation:
+            orientation(z[:, 2], self._theta_var(), theta, p_tt, loglik)
+        logw = tracks.logw[parent] + self.log_pd + loglik - log_bg
+        # Pruned as _children does: more than PRUNE_NATS below the robot's best child.
+        starts = group_starts(slot)
+        best = np.maximum.reduceat(logw, starts)
+        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+        keep = np.flatnonzero(logw >= floor)
+        count = len(keep)
+        return Tracks(
+            slot=slot[keep],
+            row=cand[keep],
+            pos=z[keep, :2],
+            pos_var=np.full(count, pix_var),
+            theta=wrap_angle(theta[keep]),
+            p_tt=p_tt[keep],
+            log_s=log_s[keep],
+            p_ts=p_ts[keep],
+            p_ss=p_ss[keep],
+            logw=logw[keep],
+            carry=np.zeros((count, 2)),
+            turn=np.zeros(count),
         )
 
     def _normalise_and_prune(self) -> None:
