@@ -36,6 +36,19 @@ from anonloc_env.odometry import Interval
 MISSED_PER_ROBOT = 32
 
 
+def add_grouped(total: np.ndarray, slot: np.ndarray, logw: np.ndarray) -> None:
+    """``total[i] = logaddexp(total[i], logsumexp(logw[slot == i]))``, ``slot`` grouped."""
+    if len(slot) == 0:
+        return
+    starts = group_starts(slot)
+    top = np.maximum.reduceat(logw, starts)
+    shift = np.where(np.isfinite(top), top, 0.0)
+    sizes = np.diff(np.append(starts, len(slot)))
+    sums = np.add.reduceat(np.exp(logw - np.repeat(shift, sizes)), starts)
+    which = slot[starts]
+    total[which] = np.logaddexp(total[which], shift + np.log(sums))
+
+
 class Identifier:
     """Multi-hypothesis "which row is me" filter for R robots at once.
 
@@ -141,11 +154,15 @@ class Identifier:
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
             keep = gate.passes(parent, rows[cand])
-            parts.append(
-                self._children(
+            if gate.moved is not None:
+                children = self._known_children(
+                    tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, log_bg
+                )
+            else:
+                children = self._children(
                     tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
                 )
-            )
+            parts.append(children)
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
@@ -161,19 +178,29 @@ class Identifier:
                     tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg
                 )
             )
-        # 3. Every explicit track may be missed in the new picture.
-        if len(tracks):
-            continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var)
-            parts.append(continued)
-            np.logaddexp.at(unanchored, lost_slot, lost_logw)
-        # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair.
+        # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair
+        # (computed before 3, which it helps prune; appended after it).
         live = np.flatnonzero(np.isfinite(self.uniform))
+        anchored_uniform = None
         if len(live) and len(i_pair):
-            parts.append(
-                self._from_uniform(
-                    live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
-                )
+            anchored_uniform = self._from_uniform(
+                live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
             )
+        # 3. Every explicit track may be missed in the new picture. A continuation more than
+        # PRUNE_NATS below its robot's best child would be pruned at once: it is not built.
+        if len(tracks):
+            floor = np.full(self.n, -np.inf)
+            for part in [*parts, anchored_uniform]:
+                if part is not None and len(part):
+                    starts = group_starts(part.slot)
+                    top = np.maximum.reduceat(part.logw, starts)
+                    which = part.slot[starts]
+                    floor[which] = np.maximum(floor[which], top - PRUNE_NATS)
+            continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var, floor)
+            parts.append(continued)
+            add_grouped(unanchored, lost_slot, lost_logw)
+        if anchored_uniform is not None:
+            parts.append(anchored_uniform)
         if len(live):
             # ... or the robot was missed now: still at one of the previous rows, its own motion
             # carried (as many rows as a robot's tracks continued through a miss), or its
@@ -423,15 +450,19 @@ class Identifier:
         )
 
     def _missed(
-        self, tracks: Tracks, interval: Interval, pix_var: float
+        self, tracks: Tracks, interval: Interval, pix_var: float, floor: np.ndarray
     ) -> tuple[Tracks, np.ndarray, np.ndarray]:
         """Continue a robot's heaviest tracks through a miss: to the predicted position if the
         heading and scale are known, otherwise still anchored at their newest detection with the
         robot's own motion carried (the next row is tested on the whole displacement). The
-        weight of the other tracks returns to "position unknown"."""
+        weight of the other tracks returns to "position unknown". Continuations below their
+        robot's ``floor`` (log weight; pruned anyway) are not returned."""
         logw = tracks.logw + self.log_miss
         # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
-        kept = rank_in_group(tracks.slot) < MISSED_PER_ROBOT
+        rank = rank_in_group(tracks.slot)
+        kept = rank < MISSED_PER_ROBOT
+        lost = np.flatnonzero(~kept)
+        kept &= logw >= floor[tracks.slot]
         predicts = np.isfinite(tracks.theta) & np.isfinite(tracks.log_s)
         var_d, var_dphi = interval.variances(self.model.odometry_noise)
         push_var = push_isotropic(interval, self.model)
@@ -468,7 +499,6 @@ class Identifier:
         carried.pos_var = carried.pos_var + s**2 * (var_d[slot] + push_var[slot])
         carried.p_tt = carried.p_tt + var_dphi[slot]
         carried.carry, carried.turn = carried.own_motion(interval)
-        lost = np.flatnonzero(~kept)
         return Tracks.concat([predicted, carried]), tracks.slot[lost], logw[lost]
 
     def _children(
@@ -541,6 +571,85 @@ class Identifier:
             turn=np.zeros(len(keep)),
         )
 
+    def _known_children(
+        self,
+        tracks: Tracks,
+        gate: Gate,
+        parent: np.ndarray,
+        rows: np.ndarray,
+        cand: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        log_bg: float,
+    ) -> Tracks:
+        """:meth:`_children` of tracks ``parent`` (indices into ``tracks``) when every track
+        knows its heading and scale and carries no motion (``gate.moved`` is set): the same
+        arithmetic, the prediction ``s R(theta) d`` taken from the gate, and only the fields
+        the Kalman step reads gathered. Candidates with a push or an estimated scale take the
+        general :func:`kalman`."""
+        model = self.model
+        if len(cand) == 0:
+            return Tracks.empty()
+        assert gate.moved is not None
+        assert gate.scale is not None
+        assert gate.rho0 is not None
+        slot = tracks.slot[parent]
+        z = rows[cand]
+        var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
+        s, rho0 = gate.scale[parent], gate.rho0[parent]
+        th, ptt = tracks.theta[parent], tracks.p_tt[parent]
+        log_s, p_ts, p_ss = tracks.log_s[parent], tracks.p_ts[parent], tracks.p_ss[parent]
+        # _kalman_heading, with Geometry's base variance.
+        b = (
+            pix_var
+            + tracks.pos_var[parent]
+            + s**2 * var_d_all[slot]
+            + (model.scale_spread * s * rho0) ** 2
+        )
+        px, py = gate.moved[parent, 0], gate.moved[parent, 1]
+        pos = tracks.pos[parent]
+        ex = (z[:, 0] - pos[:, 0]) - px
+        ey = (z[:, 1] - pos[:, 1]) - py
+        h_e = px * ey - py * ex
+        a = b + ptt * (px * px + py * py)
+        maha = (ex * ex + ey * ey - ptt * h_e * h_e / a) / b
+        loglik = -LOG_2PI - 0.5 * np.log(b * a) - 0.5 * maha
+        theta = th + ptt * h_e / a + interval.dphi[slot]
+        p_tt = np.maximum(ptt * b / a, 1e-14) + var_dphi_all[slot]
+        general = (p_ss != 0.0) | (p_ts != 0.0)
+        if interval.push is not None:
+            general |= interval.push[slot] > 0
+        if general.any():
+            g = np.flatnonzero(general)
+            sub = tracks.take(parent[g])
+            child = Child.start(sub)
+            kalman(np.ones(len(g), bool), Geometry(sub, z[g], interval, model, pix_var), sub, child)
+            loglik[g], theta[g], p_tt[g] = child.loglik, child.theta, child.p_tt
+            log_s[g], p_ts[g], p_ss[g] = child.log_s, child.p_ts, child.p_ss
+        if model.orientation:
+            orientation(z[:, 2], self._theta_var(), theta, p_tt, loglik)
+        logw = tracks.logw[parent] + self.log_pd + loglik - log_bg
+        # Pruned as _children does: more than PRUNE_NATS below the robot's best child.
+        starts = group_starts(slot)
+        best = np.maximum.reduceat(logw, starts)
+        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+        keep = np.flatnonzero(logw >= floor)
+        count = len(keep)
+        return Tracks(
+            slot=slot[keep],
+            row=cand[keep],
+            pos=z[keep, :2],
+            pos_var=np.full(count, pix_var),
+            theta=wrap_angle(theta[keep]),
+            p_tt=p_tt[keep],
+            log_s=log_s[keep],
+            p_ts=p_ts[keep],
+            p_ss=p_ss[keep],
+            logw=logw[keep],
+            carry=np.zeros((count, 2)),
+            turn=np.zeros(count),
+        )
+
     def _normalise_and_prune(self) -> None:
         tracks = self.tracks
         n_rows = 0 if self.rows is None else len(self.rows)
@@ -585,14 +694,24 @@ class Identifier:
         tracks = self.tracks
         weights = np.exp(tracks.logw)
         seen = tracks.row >= 0
-        flat = tracks.slot[seen] * n_rows + tracks.row[seen]
-        belief = np.bincount(flat, weights=weights[seen], minlength=self.n * n_rows)
-        belief = belief.reshape(self.n, n_rows) + np.exp(self.uniform)[:, None]
-        missing = np.exp(self.unanchored) + np.bincount(
-            tracks.slot[~seen], weights=weights[~seen], minlength=self.n
-        )
-        total = belief.sum(axis=1) + missing
-        self._belief = belief / total[:, None]
+        if seen.all():
+            slot, row, seen_w = tracks.slot, tracks.row, weights
+            missing = np.exp(self.unanchored)
+        else:
+            slot, row, seen_w = tracks.slot[seen], tracks.row[seen], weights[seen]
+            missing = np.exp(self.unanchored) + np.bincount(
+                tracks.slot[~seen], weights=weights[~seen], minlength=self.n
+            )
+        uniform = np.exp(self.uniform)
+        total = np.bincount(slot, weights=seen_w, minlength=self.n) + n_rows * uniform + missing
+        # Each weight divided by its robot's total before the (R, n) table is filled.
+        belief = np.bincount(
+            slot * n_rows + row, weights=seen_w / total[slot], minlength=self.n * n_rows
+        ).reshape(self.n, n_rows)
+        belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
+        if uniform.any():
+            belief += (uniform / total)[:, None]
+        self._belief = belief
         self._missing = missing / total
 
     def belief(self) -> np.ndarray:

@@ -51,6 +51,12 @@ class Gate:
     spread: np.ndarray
     turn: np.ndarray
     turn_var: np.ndarray
+    #: When every track knows its heading and scale and carries no motion (:meth:`of`):
+    #: ``(H, 2)`` the predicted displacement ``s R(theta) d``, the scale ``s`` and ``|d|``,
+    #: for the Kalman step to reuse; None otherwise.
+    moved: np.ndarray | None = None
+    scale: np.ndarray | None = None
+    rho0: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.rings = bool(np.any(self.ring > 0.0))
@@ -75,6 +81,12 @@ class Gate:
         has_theta = np.isfinite(tracks.theta)
         has_scale = np.isfinite(tracks.log_s)
         known = has_theta & has_scale
+        if known.all():  # the usual case after a few pictures: no masks needed
+            gate = cls._all_known(tracks, d, dphi, rho0, var, var_dphi, model, theta_var)
+            if not (tracks.turn.any() or tracks.carry.any()):
+                return gate
+            gate.moved = gate.scale = gate.rho0 = None  # d is not the robot's own motion
+            return gate
         ring = has_scale & ~has_theta
         s = np.exp(np.where(has_scale, tracks.log_s, 0.0))
         theta = np.where(has_theta, tracks.theta, 0.0)
@@ -90,6 +102,33 @@ class Gate:
         if model.orientation:
             turn_var[known] = (tracks.p_tt + var_dphi[slot] + theta_var)[known]
         return cls(centre, radius, spread, theta + dphi, turn_var)
+
+    @classmethod
+    def _all_known(
+        cls,
+        tracks: Tracks,
+        d: np.ndarray,
+        dphi: np.ndarray,
+        rho0: np.ndarray,
+        var: np.ndarray,
+        var_dphi: np.ndarray,
+        model: SensorModel,
+        theta_var: float,
+    ) -> Gate:
+        """:meth:`of` when every track knows its heading and scale (the same arithmetic)."""
+        s = np.exp(tracks.log_s)
+        theta = tracks.theta
+        c, sn = np.cos(theta), np.sin(theta)
+        moved = np.empty((len(tracks), 2))
+        moved[:, 0] = s * (c * d[:, 0] - sn * d[:, 1])
+        moved[:, 1] = s * (sn * d[:, 0] + c * d[:, 1])
+        centre = tracks.pos + moved
+        spread = var + (s * rho0) ** 2 * tracks.p_tt
+        if model.orientation:
+            turn_var = tracks.p_tt + var_dphi[tracks.slot] + theta_var
+        else:
+            turn_var = np.full(len(tracks), np.inf)
+        return cls(centre, np.zeros(len(tracks)), spread, theta + dphi, turn_var, moved, s, rho0)
 
     def passes(self, parent: np.ndarray, z: np.ndarray) -> np.ndarray:
         """``(K,)`` True where row ``z[k]`` may extend hypothesis ``parent[k]``."""
