@@ -113,7 +113,7 @@ class Identifier:
         fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
         self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
         self.unanchored = unanchored
-        self.tracks = Tracks.concat(parts) if parts else Tracks.empty()
+        self.tracks = Tracks.concat(parts)
         self.rows = rows
         self.pictures += 1
         self._normalise_and_prune()
@@ -181,7 +181,7 @@ class Identifier:
         # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair
         # (computed before 3, which it helps prune; appended after it).
         live = np.flatnonzero(np.isfinite(self.uniform))
-        anchored_uniform = None
+        anchored_uniform: list[Tracks] = []
         if len(live) and len(i_pair):
             anchored_uniform = self._from_uniform(
                 live, prev, rows, i_pair, j_pair, dist, interval, pix_var, var_d, log_bg
@@ -190,8 +190,8 @@ class Identifier:
         # PRUNE_NATS below its robot's best child would be pruned at once: it is not built.
         if len(tracks):
             floor = np.full(self.n, -np.inf)
-            for part in [*parts, anchored_uniform]:
-                if part is not None and len(part):
+            for part in [*parts, *anchored_uniform]:
+                if len(part):
                     starts = group_starts(part.slot)
                     top = np.maximum.reduceat(part.logw, starts)
                     which = part.slot[starts]
@@ -199,8 +199,7 @@ class Identifier:
             continued, lost_slot, lost_logw = self._missed(tracks, interval, pix_var, floor)
             parts.append(continued)
             add_grouped(unanchored, lost_slot, lost_logw)
-        if anchored_uniform is not None:
-            parts.append(anchored_uniform)
+        parts.extend(anchored_uniform)
         if len(live):
             # ... or the robot was missed now: still at one of the previous rows, its own motion
             # carried (as many rows as a robot's tracks continued through a miss), or its
@@ -224,8 +223,9 @@ class Identifier:
         pix_var: float,
         var_d: np.ndarray,
         log_bg: float,
-    ) -> Tracks:
-        """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion."""
+    ) -> list[Tracks]:
+        """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion
+        (the fused first leg's tracks, then the general path's, each grouped by robot)."""
         model = self.model
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
@@ -253,16 +253,18 @@ class Identifier:
                 slot[fused], pick[fused], i_pair, j_pair, prev, rows, interval, pix_var, log_bg
             )
             if interval.push is None or not pushed[live].any():
-                return first
+                return [first]
             general = ~fused  # type: ignore[operator]  # an array when interval.push is set
             pick, slot = pick[general], slot[general]
             rest = self._uniform_children(
                 slot, pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
             )
-            return Tracks.concat([first, rest])
-        return self._uniform_children(
-            slot, pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
-        )
+            return [first, rest]
+        return [
+            self._uniform_children(
+                slot, pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
+            )
+        ]
 
     def _uniform_children(
         self,
@@ -662,19 +664,21 @@ class Identifier:
         if lost.any():  # the model ruled everything out (it does not fit): start over
             self.unanchored[lost] = 0.0
             best[lost] = 0.0
-        keep = tracks.logw >= best[tracks.slot] - PRUNE_NATS
+        slot, logw = tracks.slot, tracks.logw
+        keep = logw >= best[slot] - PRUNE_NATS
         if lost.any():
-            keep &= ~lost[tracks.slot]
-        if not keep.all():
-            tracks = tracks.take(np.flatnonzero(keep))
+            keep &= ~lost[slot]
+        kept = None if keep.all() else np.flatnonzero(keep)
+        if kept is not None:
+            slot, logw = slot[kept], logw[kept]
         # Sort by robot, heaviest first (one key: every kept weight is within PRUNE_NATS of its
-        # robot's best), and cap the number of tracks per robot: keep the heaviest.
-        below = best[tracks.slot] - tracks.logw
-        order = np.argsort(tracks.slot * (2.0 * PRUNE_NATS + 2.0) + below, kind="stable")
-        rank = rank_in_group(tracks.slot[order])
-        tracks = tracks.take(
-            order if rank.max(initial=0) < self.max_tracks else order[rank < self.max_tracks]
-        )
+        # robot's best), and cap the number of tracks per robot: keep the heaviest. The fields
+        # are gathered once, in the final order.
+        order = np.argsort(slot * (2.0 * PRUNE_NATS + 2.0) + (best[slot] - logw), kind="stable")
+        rank = rank_in_group(slot[order])
+        if rank.max(initial=0) >= self.max_tracks:
+            order = order[rank < self.max_tracks]
+        tracks = tracks.take(order if kept is None else kept[order])
         # Normalise each robot's weights to sum to one.
         sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
         sums += np.bincount(

@@ -79,6 +79,10 @@ class Tracks:
 
     @staticmethod
     def concat(parts: list[Tracks]) -> Tracks:
+        """The tracks of ``parts`` one after the other (a lone part itself, not a copy)."""
+        parts = [p for p in parts if len(p)]
+        if len(parts) < 2:
+            return parts[0] if parts else Tracks.empty()
         return Tracks(*(np.concatenate([getattr(p, f) for p in parts]) for f in FIELDS))
 
     def __len__(self) -> int:
