@@ -85,6 +85,26 @@ class Tracks:
             return parts[0] if parts else Tracks.empty()
         return Tracks(*(np.concatenate([getattr(p, f) for p in parts]) for f in FIELDS))
 
+    @staticmethod
+    def gather(parts: list[Tracks], index: np.ndarray) -> Tracks:
+        """``Tracks.concat(parts).take(index)``, without building the concatenation (each
+        field is filled part by part: no large array is written twice)."""
+        parts = [p for p in parts if len(p)]
+        if len(parts) < 2:
+            return (parts[0] if parts else Tracks.empty()).take(index)
+        bounds = np.cumsum([0] + [len(p) for p in parts])
+        part = np.searchsorted(bounds, index, side="right") - 1
+        where = [np.flatnonzero(part == k) for k in range(len(parts))]
+        local = [index[w] - bounds[k] for k, w in enumerate(where)]
+        fields = []
+        for f in FIELDS:
+            arrays = [getattr(p, f) for p in parts]
+            out = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
+            for w, i, a in zip(where, local, arrays, strict=True):
+                out[w] = a[i]
+            fields.append(out)
+        return Tracks(*fields)
+
     def __len__(self) -> int:
         return len(self.slot)
 
