@@ -401,7 +401,8 @@ class Identifier:
         count = 0
         ends = np.cumsum(counts)
         cuts = np.searchsorted(ends, np.arange(BLOCK, total, BLOCK), side="left")
-        cuts = np.unique(np.concatenate([[0], cuts, [len(robots)]]))
+        cuts = np.concatenate([[0], cuts, [len(robots)]])  # sorted: drop repeats without
+        cuts = cuts[np.flatnonzero(np.diff(cuts, prepend=-1))]  # np.unique (it imports numpy.ma)
         for lo, hi in zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True):
             sl = np.repeat(robots[lo:hi], counts[lo:hi])
             pk = by_length[expand_ranges(start[lo:hi], counts[lo:hi])]
