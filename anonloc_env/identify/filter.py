@@ -4,6 +4,7 @@ model of :mod:`anonloc_env.identify.model` and the tracks of :mod:`anonloc_env.i
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,6 +38,21 @@ MISSED_PER_ROBOT = 32
 #: Candidates of the first leg scored per block (whole robots, about this many): small enough
 #: that the block's temporaries stay in cache and are not fresh memory to fault in.
 BLOCK = 8192
+
+
+class Pairs(NamedTuple):
+    """One interval's candidate pairs and what scoring them reads: ``i_pair``/``j_pair`` index
+    rows of ``prev`` (the previous picture) and ``rows`` (the new one), within any robot's
+    reach; ``pix_var`` is the pixel variance (image units^2) and ``log_bg`` the log density of
+    a background row."""
+
+    prev: np.ndarray
+    rows: np.ndarray
+    i_pair: np.ndarray
+    j_pair: np.ndarray
+    interval: Interval
+    pix_var: float
+    log_bg: float
 
 
 def add_grouped(total: np.ndarray, slot: np.ndarray, logw: np.ndarray) -> None:
@@ -238,6 +254,7 @@ class Identifier:
     ) -> list[Tracks]:
         """Anchor the uniform weight of robots ``live``: every pair whose length fits its motion
         (the fused first leg's tracks, then the general path's, each grouped by robot)."""
+        pairs = Pairs(prev, rows, i_pair, j_pair, interval, pix_var, log_bg)
         model = self.model
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
@@ -259,48 +276,20 @@ class Identifier:
             # Heading and scale known: robots nothing pushed take the fused first leg.
             pushed = np.zeros(self.n, bool) if interval.push is None else interval.push > 0
             fused = ~pushed[live]
-            first = self._first_leg(
-                live[fused],
-                start[fused],
-                counts[fused],
-                by_length,
-                i_pair,
-                j_pair,
-                prev,
-                rows,
-                interval,
-                pix_var,
-                log_bg,
-            )
+            first = self._first_leg(live[fused], start[fused], counts[fused], by_length, pairs)
             if fused.all():
                 return [first]
             live, start, counts = live[~fused], start[~fused], counts[~fused]
             pick = by_length[expand_ranges(start, counts)]
-            rest = self._uniform_children(
-                np.repeat(live, counts), pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
-            )
+            rest = self._uniform_children(np.repeat(live, counts), pick, pairs)
             return [first, rest]
         pick = by_length[expand_ranges(start, counts)]
-        return [
-            self._uniform_children(
-                np.repeat(live, counts), pick, i_pair, j_pair, prev, rows, interval, pix_var, log_bg
-            )
-        ]
+        return [self._uniform_children(np.repeat(live, counts), pick, pairs)]
 
-    def _uniform_children(
-        self,
-        slot: np.ndarray,
-        pick: np.ndarray,
-        i_pair: np.ndarray,
-        j_pair: np.ndarray,
-        prev: np.ndarray,
-        rows: np.ndarray,
-        interval: Interval,
-        pix_var: float,
-        log_bg: float,
-    ) -> Tracks:
+    def _uniform_children(self, slot: np.ndarray, pick: np.ndarray, pairs: Pairs) -> Tracks:
         """The uniform weight of robot ``slot[k]`` anchored at pair ``pick[k]``, by the general
         path: a parent track at the pair's first row, extended by :meth:`_children`."""
+        prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
         model = self.model
         keep = uniform_gate(
             slot, pick, i_pair, j_pair, prev, rows, interval, model, pix_var, self._theta_var()
@@ -338,13 +327,7 @@ class Identifier:
         start: np.ndarray,
         counts: np.ndarray,
         by_length: np.ndarray,
-        i_pair: np.ndarray,
-        j_pair: np.ndarray,
-        prev: np.ndarray,
-        rows: np.ndarray,
-        interval: Interval,
-        pix_var: float,
-        log_bg: float,
+        pairs: Pairs,
     ) -> Tracks:
         """:meth:`_uniform_children` for robots nothing pushed, heading detected, scale known.
 
@@ -354,6 +337,7 @@ class Identifier:
         robot, and no parent track is built (every parent has position variance ``pix_var``,
         heading variance ``theta_var``, the known scale). Candidates are grouped by robot.
         """
+        prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
         model = self.model
         assert model.scale is not None
         total = int(counts.sum())
