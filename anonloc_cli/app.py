@@ -68,6 +68,10 @@ Workers = Annotated[
     int | None,
     typer.Option(min=1, help="Parallel workers (default: one per core)."),
 ]
+Pictures = Annotated[
+    int | None,
+    typer.Option(min=1, help="Stop each episode after K pictures (default: run it to its end)."),
+]
 Sets = Annotated[
     list[str] | None,
     typer.Option(
@@ -225,12 +229,7 @@ def bench(
             "linear, random, swarm, distinct, greedy."
         ),
     ] = None,
-    pictures: Annotated[
-        int | None,
-        typer.Option(
-            min=1, help="Stop each episode after K pictures (default: run it to its end)."
-        ),
-    ] = None,
+    pictures: Pictures = None,
     set_: Sets = None,
     backend: BackendOption = Backend.process,
     address: Address = None,
@@ -495,10 +494,7 @@ def evaluate(
             "e.g. random."
         ),
     ] = None,
-    pictures: Annotated[
-        int | None,
-        typer.Option(min=1, help="Stop each episode after K pictures (default: its end)."),
-    ] = None,
+    pictures: Pictures = None,
     set_: Sets = None,
     backend: BackendOption = Backend.process,
     address: Address = None,
