@@ -28,6 +28,7 @@ from anonloc_env.identify.tracks import (
     orientation,
     rank_in_group,
     scale_free,
+    shared,
 )
 from anonloc_env.neighbours import expand_ranges, pairs_within
 from anonloc_env.odometry import Interval
@@ -428,15 +429,15 @@ class Identifier:
             slot=slot,
             row=row,
             pos=rows[row, :2],
-            pos_var=np.full(count, pix_var),
+            pos_var=shared(pix_var, count),
             theta=out_theta[:count],
             p_tt=(p_tt1 * (1 - gain))[slot],
-            log_s=np.full(count, math.log(s)),
-            p_ts=np.zeros(count),
-            p_ss=np.zeros(count),
+            log_s=shared(math.log(s), count),
+            p_ts=shared(0.0, count),
+            p_ss=shared(0.0, count),
             logw=out_logw[:count],
-            carry=np.zeros((count, 2)),
-            turn=np.zeros(count),
+            carry=shared(0.0, count, 2),
+            turn=shared(0.0, count),
         )
 
     def _uniform_missed(
@@ -516,8 +517,8 @@ class Identifier:
             p_ts=tracks.p_ts[k],
             p_ss=tracks.p_ss[k],
             logw=logw[k],
-            carry=np.zeros((len(k), 2)),
-            turn=np.zeros(len(k)),
+            carry=shared(0.0, len(k), 2),
+            turn=shared(0.0, len(k)),
         )
         c = np.flatnonzero(kept & ~predicts)
         carried = tracks.take(c)
@@ -591,15 +592,15 @@ class Identifier:
             slot=slot[keep],
             row=cand[keep],
             pos=z[keep, :2],
-            pos_var=np.full(len(keep), pix_var),
+            pos_var=shared(pix_var, len(keep)),
             theta=wrap_angle(child.theta[keep]),
             p_tt=child.p_tt[keep],
             log_s=child.log_s[keep],
             p_ts=child.p_ts[keep],
             p_ss=child.p_ss[keep],
             logw=logw[keep],
-            carry=np.zeros((len(keep), 2)),
-            turn=np.zeros(len(keep)),
+            carry=shared(0.0, len(keep), 2),
+            turn=shared(0.0, len(keep)),
         )
 
     def _known_children(
@@ -670,15 +671,15 @@ class Identifier:
             slot=slot[keep],
             row=cand[keep],
             pos=z[keep, :2],
-            pos_var=np.full(count, pix_var),
+            pos_var=shared(pix_var, count),
             theta=wrap_angle(theta[keep]),
             p_tt=p_tt[keep],
             log_s=log_s[keep],
             p_ts=p_ts[keep],
             p_ss=p_ss[keep],
             logw=logw[keep],
-            carry=np.zeros((count, 2)),
-            turn=np.zeros(count),
+            carry=shared(0.0, count, 2),
+            turn=shared(0.0, count),
         )
 
     def _normalise_and_prune(self, parts: list[Tracks]) -> None:

@@ -75,7 +75,11 @@ class Tracks:
         return d, dphi
 
     def take(self, index: np.ndarray) -> Tracks:
-        return Tracks(*(getattr(self, f)[index] for f in FIELDS))
+        """The tracks ``index`` (an index array or mask); shared fields stay shared."""
+        slot = self.slot[index]
+        return Tracks(
+            *(slot if f == "slot" else _take(getattr(self, f), index, len(slot)) for f in FIELDS)
+        )
 
     @staticmethod
     def concat(parts: list[Tracks]) -> Tracks:
@@ -83,7 +87,13 @@ class Tracks:
         parts = [p for p in parts if len(p)]
         if len(parts) < 2:
             return parts[0] if parts else Tracks.empty()
-        return Tracks(*(np.concatenate([getattr(p, f) for p in parts]) for f in FIELDS))
+        count = sum(len(p) for p in parts)
+        fields = []
+        for f in FIELDS:
+            arrays = [getattr(p, f) for p in parts]
+            same = _shared(arrays, count)
+            fields.append(np.concatenate(arrays) if same is None else same)
+        return Tracks(*fields)
 
     @staticmethod
     def gather(parts: list[Tracks], index: np.ndarray) -> Tracks:
@@ -99,6 +109,10 @@ class Tracks:
         fields = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
+            same = _shared(arrays, len(index))
+            if same is not None:
+                fields.append(same)
+                continue
             out = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
             for w, i, a in zip(where, local, arrays, strict=True):
                 out[w] = a[i]
@@ -107,6 +121,37 @@ class Tracks:
 
     def __len__(self) -> int:
         return len(self.slot)
+
+
+def shared(value: float, count: int, width: int = 0) -> np.ndarray:
+    """``count`` copies of ``value`` (``(count, width)`` if ``width``), read-only and taking no
+    memory (stride 0): a field that every track of a batch holds alike (a first leg's position
+    variance, a known scale, no carried motion). :meth:`Tracks.take`, :meth:`Tracks.concat` and
+    :meth:`Tracks.gather` keep such a field shared, so large batches do not write it out."""
+    shape = (count, width) if width else (count,)
+    return np.broadcast_to(np.float64(value), shape)
+
+
+def _is_shared(a: np.ndarray) -> bool:
+    return a.ndim > 0 and a.strides[0] == 0 and len(a) > 0
+
+
+def _take(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
+    """``a[index]`` (``count`` long); a shared field stays shared."""
+    if _is_shared(a):
+        return np.broadcast_to(a[0], (count, *a.shape[1:]))
+    return a[index]
+
+
+def _shared(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
+    """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
+    ``None`` if they do not."""
+    first = arrays[0]
+    if not all(_is_shared(a) for a in arrays):
+        return None
+    if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
+        return None
+    return np.broadcast_to(first[0], (count, *first.shape[1:]))
 
 
 def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
