@@ -182,7 +182,7 @@ class Identifier:
             starts, ends = offsets[row], offsets[row + 1]
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
-            keep = gate.passes(parent, rows[cand])
+            keep = gate.passes(parent, rows, cand)
             if gate.moved is not None:
                 children = self._known_children(
                     tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, log_bg
@@ -201,7 +201,7 @@ class Identifier:
                 radius + s_high * carried + GATE_SIGMAS * math.sqrt(tracks.pos_var[missed].max())
             )
             a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
-            keep = gate.passes(missed[a], rows[b])
+            keep = gate.passes(missed[a], rows, b)
             parts.append(
                 self._children(
                     tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg

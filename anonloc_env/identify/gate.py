@@ -130,19 +130,26 @@ class Gate:
             turn_var = np.full(len(tracks), np.inf)
         return cls(centre, np.zeros(len(tracks)), spread, theta + dphi, turn_var, moved, s, rho0)
 
-    def passes(self, parent: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """``(K,)`` True where row ``z[k]`` may extend hypothesis ``parent[k]``."""
-        dx = z[:, 0] - self.centre[parent, 0]
-        dy = z[:, 1] - self.centre[parent, 1]
+    def passes(self, parent: np.ndarray, rows: np.ndarray, cand: np.ndarray) -> np.ndarray:
+        """``(K,)`` True where row ``rows[cand[k]]`` may extend hypothesis ``parent[k]``.
+
+        The turn is tested only where the position passes (the chi-square only grows)."""
+        dx = rows[cand, 0] - self.centre[parent, 0]
+        dy = rows[cand, 1] - self.centre[parent, 1]
         if self.rings:
             miss = np.hypot(dx, dy) - self.ring[parent]
             chi2 = miss * miss
         else:
             chi2 = dx * dx + dy * dy
         chi2 /= self.spread[parent]
-        if self.turns:
-            chi2 += wrap_angle(z[:, 2] - self.turn[parent]) ** 2 / self.turn_var[parent]
-        return chi2 <= GATE_CHI2
+        if not self.turns:
+            return chi2 <= GATE_CHI2
+        ok = np.flatnonzero(chi2 <= GATE_CHI2)
+        p = parent[ok]
+        turn = wrap_angle(rows[cand[ok], 2] - self.turn[p])
+        out = np.zeros(len(parent), dtype=bool)
+        out[ok] = chi2[ok] + turn**2 / self.turn_var[p] <= GATE_CHI2
+        return out
 
 
 def uniform_gate(
