@@ -417,6 +417,11 @@ class Identifier:
             best = np.maximum.reduceat(logw, first)
             floor = np.repeat(best, np.diff(np.append(first, len(sl)))) - PRUNE_NATS
             keep = np.flatnonzero(logw >= floor)
+            # Heaviest first within each robot, the order _normalise_and_prune keeps (the
+            # tracks then come out in runs that Tracks.gather copies as slices).
+            group = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(sl))))
+            key = group[keep] * (2.0 * PRUNE_NATS + 2.0) + (floor[keep] + PRUNE_NATS - logw[keep])
+            keep = keep[np.argsort(key, kind="stable")]
             end = count + len(keep)
             sk = out_slot[count:end] = sl[keep]
             out_pick[count:end] = pk[keep]

@@ -98,14 +98,44 @@ class Tracks:
     @staticmethod
     def gather(parts: list[Tracks], index: np.ndarray) -> Tracks:
         """``Tracks.concat(parts).take(index)``, without building the concatenation (each
-        field is filled part by part: no large array is written twice)."""
+        field is filled part by part: no large array is written twice). Runs of consecutive
+        tracks (a part already in order) are copied as slices; a lone part taken whole is
+        returned itself."""
         parts = [p for p in parts if len(p)]
-        if len(parts) < 2:
-            return (parts[0] if parts else Tracks.empty()).take(index)
+        if not parts:
+            return Tracks.empty().take(index)
         bounds = np.cumsum([0] + [len(p) for p in parts])
-        part = np.searchsorted(bounds, index, side="right") - 1
-        where = [np.flatnonzero(part == k) for k in range(len(parts))]
+        if len(index) == bounds[-1] and len(parts) == 1 and _is_identity(index):
+            return parts[0]
+        # Runs: where index steps by one, within one part, for at least MIN_RUN tracks.
+        brk = np.diff(index) != 1
+        for bound in bounds[1:-1].tolist():
+            brk |= index[1:] == bound
+        first = np.concatenate([[0], np.flatnonzero(brk) + 1])
+        size = np.diff(np.append(first, len(index)))
+        long = size >= MIN_RUN
+        if int(size[long].sum()) * 2 < len(index):  # mostly scattered: by index alone
+            first, size = first[:0], size[:0]
+            part = np.searchsorted(bounds, index, side="right") - 1
+            where = [np.flatnonzero(part == k) for k in range(len(parts))]
+        else:
+            first, size = first[long], size[long]
+            short = np.ones(len(index), dtype=bool)
+            short[expand_runs(first, size)] = False
+            at = np.flatnonzero(short)
+            part = np.searchsorted(bounds, index[at], side="right") - 1
+            where = [at[part == k] for k in range(len(parts))]
         local = [index[w] - bounds[k] for k, w in enumerate(where)]
+        src_part = np.searchsorted(bounds, index[first], side="right") - 1
+        runs = list(
+            zip(
+                first.tolist(),
+                src_part.tolist(),
+                (index[first] - bounds[src_part]).tolist(),
+                size.tolist(),
+                strict=True,
+            )
+        )
         fields = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
@@ -114,8 +144,11 @@ class Tracks:
                 fields.append(same)
                 continue
             out = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
-            for w, i, a in zip(where, local, arrays, strict=True):
-                out[w] = a[i]
+            for to, k, start, count in runs:
+                out[to : to + count] = arrays[k][start : start + count]
+            for w, i, arr in zip(where, local, arrays, strict=True):
+                if len(w):
+                    out[w] = arr[i]
             fields.append(out)
         return Tracks(*fields)
 
@@ -152,6 +185,23 @@ def _shared(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
         return None
     return np.broadcast_to(first[0], (count, *first.shape[1:]))
+
+
+#: :meth:`Tracks.gather` copies runs of at least this many consecutive tracks as slices.
+MIN_RUN = 32
+
+
+def _is_identity(index: np.ndarray) -> bool:
+    return bool(index[0] == 0 and (np.diff(index) == 1).all()) if len(index) else True
+
+
+def expand_runs(first: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Concatenate ``range(f, f + s)`` for every ``(f, s)``."""
+    total = int(size.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    ends = np.cumsum(size)
+    return np.arange(total, dtype=np.int64) + np.repeat(first - (ends - size), size)
 
 
 def everything(index: np.ndarray, n: int) -> np.ndarray | slice:

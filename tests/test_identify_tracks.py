@@ -1,0 +1,68 @@
+"""Tracks.gather and take against the plain concatenation they stand for."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from anonloc_env.identify.tracks import FIELDS, Tracks, shared
+
+
+def _part(rng: np.random.Generator, count: int, slot0: int) -> Tracks:
+    """A part of ``count`` random tracks; half its fields shared, as a first leg's are."""
+    return Tracks(
+        slot=np.sort(rng.integers(slot0, slot0 + 5, count)),
+        row=rng.integers(-1, 40, count),
+        pos=rng.normal(size=(count, 2)),
+        pos_var=shared(2.5, count),
+        theta=rng.normal(size=count),
+        p_tt=rng.random(count),
+        log_s=shared(np.log(100.0), count),
+        p_ts=shared(0.0, count),
+        p_ss=shared(0.0, count),
+        logw=rng.normal(size=count),
+        carry=shared(0.0, count, 2),
+        turn=shared(0.0, count),
+    )
+
+
+def _index(rng: np.random.Generator, total: int, kind: str) -> np.ndarray:
+    if kind == "scattered":
+        return rng.permutation(total)[: total // 2]
+    if kind == "identity":
+        return np.arange(total)
+    # Long runs (slices), some crossing from one part into the next, and scattered tracks.
+    pieces, at = [], 0
+    while at < total:
+        size = int(rng.integers(1, 90))
+        if rng.random() < 0.5:
+            pieces.append(np.arange(at, min(at + size, total)))
+        else:
+            pieces.append(rng.permutation(np.arange(at, min(at + size, total))))
+        at += size
+    order = rng.permutation(len(pieces))
+    return np.concatenate([pieces[k] for k in order])
+
+
+@pytest.mark.parametrize("kind", ["runs", "scattered", "identity"])
+@pytest.mark.parametrize("seed", range(5))
+def test_gather_is_concat_then_take(kind: str, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    parts = [_part(rng, int(n), 5 * k) for k, n in enumerate(rng.integers(1, 400, 3))]
+    index = _index(rng, sum(len(p) for p in parts), kind)
+    got = Tracks.gather(parts, index)
+    want = Tracks.concat(parts).take(index)
+    for f in FIELDS:
+        np.testing.assert_array_equal(getattr(got, f), getattr(want, f), err_msg=f)
+    # Fields every part holds alike stay shared: no memory per track.
+    assert got.pos_var.strides[0] == 0
+    assert got.carry.strides == (0, 0)
+
+
+def test_shared_fields_that_differ_between_parts_are_written_out() -> None:
+    rng = np.random.default_rng(1)
+    a, b = _part(rng, 10, 0), _part(rng, 7, 5)
+    b.pos_var = shared(4.0, 7)
+    got = Tracks.gather([a, b], np.arange(17)[::-1])
+    np.testing.assert_array_equal(got.pos_var, np.r_[np.full(7, 4.0), np.full(10, 2.5)])
+    assert got.pos_var.strides[0] != 0
