@@ -110,6 +110,9 @@ class Identifier:
         self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
         # The other robots between the previous picture and the newest (None: clutter model).
         self.links: Links | None = None
+        # Log weight of each row of the newest picture in the uniform weight (None: all alike):
+        # with the others persisting, a row that continues another robot's is less likely mine.
+        self.row_bias: np.ndarray | None = None
         self._belief: np.ndarray | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
@@ -138,14 +141,17 @@ class Identifier:
             parts: list[Tracks] = []
             before = np.zeros(self.n)
             unanchored = before + self.log_miss
+            self.links = None
         else:
             parts, unanchored = self._extend(rows, interval, log_bg)
             before = self.unanchored
+        bias = None if self.links is None else self.links.starts + log_bg
         # "Position unknown" before the picture: now seen at any row alike, or still unknown.
         fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
         self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
         self.unanchored = unanchored
         self.rows = rows
+        self.row_bias = bias
         self.pictures += 1
         self._normalise_and_prune(parts)
         self._compute_belief()
@@ -242,11 +248,15 @@ class Identifier:
                 spread = (
                     math.log(len(prev))
                     if self.links is None
-                    else float(np.logaddexp.reduce(self.links.ends))
+                    else float(np.logaddexp.reduce(self.links.ends + self._bias(np.arange(len(prev)))))
                 )
                 lost = self.uniform[live] + spread + self.log_miss
                 unanchored[live] = np.logaddexp(unanchored[live], lost)
         return [p for p in parts if len(p)], unanchored
+
+    def _bias(self, row: np.ndarray) -> np.ndarray | float:
+        """Log weight of rows ``row`` of the previous picture in its uniform weight."""
+        return 0.0 if self.row_bias is None else self.row_bias[row]
 
     def _link_bg(
         self, prev_row: np.ndarray, cand: np.ndarray, log_bg: float
@@ -334,7 +344,7 @@ class Identifier:
             log_s=np.full(n_par, log_scale),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
-            logw=self.uniform[slot],
+            logw=self.uniform[slot] + self._bias(p_row),
             carry=np.zeros((n_par, 2)),
             turn=np.zeros(n_par),
         )
@@ -432,6 +442,8 @@ class Identifier:
             logw = const[sl] - 0.5 * maha - 0.5 * (err * err / var_o[sl])
             if self.links is not None:  # the others persist: per link instead of lambda
                 logw += log_bg + self.links.detect(i_pair[pk], j_pair[pk])
+            if self.row_bias is not None:
+                logw += self.row_bias[i_pair[pk]]
             # The prune.
             first = group_starts(sl)
             best = np.maximum.reduceat(logw, first)
@@ -498,7 +510,8 @@ class Identifier:
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
             logw=self.uniform[slot]
             + self.log_miss
-            + (0.0 if self.links is None else self.links.ends[p_row]),
+            + (0.0 if self.links is None else self.links.ends[p_row])
+            + self._bias(p_row),
             carry=carry,
             turn=turn,
         )
@@ -717,6 +730,8 @@ class Identifier:
             logw = np.concatenate([np.zeros(0)] + [p.logw for p in parts])
         n_rows = 0 if self.rows is None else len(self.rows)
         log_rows = math.log(n_rows) if n_rows else -np.inf
+        if n_rows and self.row_bias is not None:
+            log_rows = float(np.logaddexp.reduce(self.row_bias))
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
         if len(slot):
@@ -767,14 +782,19 @@ class Identifier:
                 tracks.slot[~seen], weights=weights[~seen], minlength=self.n
             )
         uniform = np.exp(self.uniform)
-        total = np.bincount(slot, weights=seen_w, minlength=self.n) + n_rows * uniform + missing
+        spread = np.ones(n_rows) if self.row_bias is None else np.exp(self.row_bias)
+        total = (
+            np.bincount(slot, weights=seen_w, minlength=self.n)
+            + spread.sum() * uniform
+            + missing
+        )
         # Each weight divided by its robot's total before the (R, n) table is filled.
         belief = np.bincount(
             slot * n_rows + row, weights=seen_w / total[slot], minlength=self.n * n_rows
         ).reshape(self.n, n_rows)
         belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
         if uniform.any():
-            belief += (uniform / total)[:, None]
+            belief += (uniform / total)[:, None] * spread[None, :]
         self._belief = belief
         self._missing = missing / total
 
