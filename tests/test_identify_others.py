@@ -1,4 +1,4 @@
-"""The other robots persist (``anonloc_env.identify.others``): exact sums, where the model is used."""
+"""The other robots persist (``anonloc_env.identify.others``): exact sums; where it is used."""
 
 from __future__ import annotations
 

@@ -245,11 +245,10 @@ class Identifier:
             if len(prev) <= MISSED_PER_ROBOT:
                 parts.append(self._uniform_missed(live, prev, interval, pix_var))
             else:
-                spread = (
-                    math.log(len(prev))
-                    if self.links is None
-                    else float(np.logaddexp.reduce(self.links.ends + self._bias(np.arange(len(prev)))))
-                )
+                spread = math.log(len(prev))
+                if self.links is not None:  # each row weighed by what its miss leaves the others
+                    every = self.links.ends + self._bias(np.arange(len(prev)))
+                    spread = float(np.logaddexp.reduce(every))
                 lost = self.uniform[live] + spread + self.log_miss
                 unanchored[live] = np.logaddexp(unanchored[live], lost)
         return [p for p in parts if len(p)], unanchored
@@ -258,9 +257,7 @@ class Identifier:
         """Log weight of rows ``row`` of the previous picture in its uniform weight."""
         return 0.0 if self.row_bias is None else self.row_bias[row]
 
-    def _link_bg(
-        self, prev_row: np.ndarray, cand: np.ndarray, log_bg: float
-    ) -> float | np.ndarray:
+    def _link_bg(self, prev_row: np.ndarray, cand: np.ndarray, log_bg: float) -> float | np.ndarray:
         """What a link from ``prev_row`` (-1: missed there) to row ``cand`` is divided by:
         ``lambda`` (the clutter model), or per link when the others persist (as a log)."""
         if self.links is None:
@@ -784,9 +781,7 @@ class Identifier:
         uniform = np.exp(self.uniform)
         spread = np.ones(n_rows) if self.row_bias is None else np.exp(self.row_bias)
         total = (
-            np.bincount(slot, weights=seen_w, minlength=self.n)
-            + spread.sum() * uniform
-            + missing
+            np.bincount(slot, weights=seen_w, minlength=self.n) + spread.sum() * uniform + missing
         )
         # Each weight divided by its robot's total before the (R, n) table is filled.
         belief = np.bincount(

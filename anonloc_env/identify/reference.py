@@ -150,7 +150,7 @@ def _one_robot(
     # (a Kalman innovation is at least 2 pixel variances wide), at least a miss (always there).
     heading_gain = LOG_2PI - 0.5 * math.log(2 * math.pi * var_z) if model.orientation else 0.0
     # With the others persisting, a link's weight in place of -log lambda is at most
-    # max(starts) + max(ends, 0) + max(extra, 0), and a miss's between min(ends, 0) and max(ends, 0).
+    # max(starts) + max(ends, 0) + max(extra, 0); a miss's lies in [min(ends, 0), max(ends, 0)].
     link_up = [-b for b in log_bg]
     miss_up = [0.0] * len(log_bg)
     miss_down = [0.0] * len(log_bg)
