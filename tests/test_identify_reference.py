@@ -101,6 +101,11 @@ CASES = {
         4,
         1.0,
     ),
+    "misses-and-clutter-others-persist": (
+        _model(p_detect=0.85, n_robots=4, false_positives=1.0, others_sigma=0.4),
+        4,
+        1.0,
+    ),
     "headings": (_model(orientation=True, orientation_noise=math.radians(3.0)), 4, 0.5),
     "tilted": (_model(scale_spread=0.02), 5, 0.0),
 }

@@ -27,6 +27,8 @@ matches the world: decisions taken at belief 0.99 are wrong about 1 % of the tim
 Layout: :mod:`~anonloc_env.identify.model` (the sensor model and the densities),
 :mod:`~anonloc_env.identify.tracks` (hypotheses and how a row extends one),
 :mod:`~anonloc_env.identify.gate` (the cheap test of which rows may extend a hypothesis),
+:mod:`~anonloc_env.identify.others` (the other robots persisting between pictures, where pictures
+have misses or false positives: a link's weight in place of ``1 / lambda``),
 :mod:`~anonloc_env.identify.filter` (the :class:`Identifier`: gating, pruning, beliefs) and
 :mod:`~anonloc_env.identify.reference` (an exact enumerator for small cases, to check the
 identifier against).

@@ -18,6 +18,7 @@ from anonloc_env.identify.model import (
     push_isotropic,
     ring_loglik,
 )
+from anonloc_env.identify.others import Links, links_between
 from anonloc_env.identify.tracks import (
     Child,
     Geometry,
@@ -108,6 +109,11 @@ class Identifier:
         self.uniform = np.full(self.n, -np.inf)  # log weight of each row of the newest picture
         self.unanchored = np.zeros(self.n)  # log weight of "position unknown"
         self.rows: np.ndarray | None = None  # newest picture (n_rows, 3)
+        # The other robots between the previous picture and the newest (None: clutter model).
+        self.links: Links | None = None
+        # Log weight of each row of the newest picture in the uniform weight (None: all alike):
+        # with the others persisting, a row that continues another robot's is less likely mine.
+        self.row_bias: np.ndarray | None = None
         self._belief: np.ndarray | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
@@ -136,14 +142,17 @@ class Identifier:
             parts: list[Tracks] = []
             before = np.zeros(self.n)
             unanchored = before + self.log_miss
+            self.links = None
         else:
             parts, unanchored = self._extend(rows, interval, log_bg)
             before = self.unanchored
+        bias = None if self.links is None else self.links.starts + log_bg
         # "Position unknown" before the picture: now seen at any row alike, or still unknown.
         fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
         self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
         self.unanchored = unanchored
         self.rows = rows
+        self.row_bias = bias
         self.pictures += 1
         self._normalise_and_prune(parts)
         self._compute_belief()
@@ -156,6 +165,7 @@ class Identifier:
         assert self.rows is not None
         prev = self.rows
         pix_var = self._pixel_var(np.concatenate([prev, rows]))
+        self.links = links_between(model, prev, rows, log_bg, pix_var)
         var_d, _ = interval.variances(model.odometry_noise)
         s_high = model.scale_bounds[1]
         spread = model.scale_spread
@@ -183,13 +193,14 @@ class Identifier:
             parent = np.repeat(anchored, ends - starts)
             cand = j_pair[expand_ranges(starts, ends - starts)]
             keep = gate.passes(parent, rows, cand)
+            bg = self._link_bg(tracks.row[parent[keep]], cand[keep], log_bg)
             if gate.moved is not None:
                 children = self._known_children(
-                    tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, log_bg
+                    tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, bg
                 )
             else:
                 children = self._children(
-                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, log_bg
+                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, bg
                 )
             parts.append(children)
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
@@ -202,10 +213,9 @@ class Identifier:
             )
             a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
             keep = gate.passes(missed[a], rows, b)
+            bg = self._link_bg(tracks.row[missed[a][keep]], b[keep], log_bg)
             parts.append(
-                self._children(
-                    tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, log_bg
-                )
+                self._children(tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, bg)
             )
         # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair
         # (computed before 3, which it helps prune; appended after it).
@@ -236,9 +246,24 @@ class Identifier:
             if len(prev) <= MISSED_PER_ROBOT:
                 parts.append(self._uniform_missed(live, prev, interval, pix_var))
             else:
-                lost = self.uniform[live] + math.log(len(prev)) + self.log_miss
+                spread = math.log(len(prev))
+                if self.links is not None:  # each row weighed by what its miss leaves the others
+                    every = self.links.ends + self._bias(np.arange(len(prev)))
+                    spread = float(np.logaddexp.reduce(every))
+                lost = self.uniform[live] + spread + self.log_miss
                 unanchored[live] = np.logaddexp(unanchored[live], lost)
         return [p for p in parts if len(p)], unanchored
+
+    def _bias(self, row: np.ndarray) -> np.ndarray | float:
+        """Log weight of rows ``row`` of the previous picture in its uniform weight."""
+        return 0.0 if self.row_bias is None else self.row_bias[row]
+
+    def _link_bg(self, prev_row: np.ndarray, cand: np.ndarray, log_bg: float) -> float | np.ndarray:
+        """What a link from ``prev_row`` (-1: missed there) to row ``cand`` is divided by:
+        ``lambda`` (the clutter model), or per link when the others persist (as a log)."""
+        if self.links is None:
+            return log_bg
+        return -self.links.detect(prev_row, cand)
 
     def _from_uniform(
         self,
@@ -297,6 +322,7 @@ class Identifier:
         )
         pick, slot = pick[keep], slot[keep]
         p_row = i_pair[pick]
+        bg = self._link_bg(p_row, j_pair[pick], log_bg)
         n_par = len(pick)
         if model.orientation:
             theta = prev[p_row, 2]
@@ -316,11 +342,11 @@ class Identifier:
             log_s=np.full(n_par, log_scale),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
-            logw=self.uniform[slot],
+            logw=self.uniform[slot] + self._bias(p_row),
             carry=np.zeros((n_par, 2)),
             turn=np.zeros(n_par),
         )
-        return self._children(parent, rows, j_pair[pick], interval, pix_var, log_bg)
+        return self._children(parent, rows, j_pair[pick], interval, pix_var, bg)
 
     def _first_leg(
         self,
@@ -412,6 +438,10 @@ class Identifier:
             theta1 = theta0[pk] + theta_var * h_e / a_k + dphi[sl]
             err = wrap_fast(seen[pk] - theta1)
             logw = const[sl] - 0.5 * maha - 0.5 * (err * err / var_o[sl])
+            if self.links is not None:  # the others persist: per link instead of lambda
+                logw += log_bg + self.links.detect(i_pair[pk], j_pair[pk])
+            if self.row_bias is not None:
+                logw += self.row_bias[i_pair[pk]]
             # The prune.
             first = group_starts(sl)
             best = np.maximum.reduceat(logw, first)
@@ -481,7 +511,10 @@ class Identifier:
             log_s=np.full(n_par, math.log(s) if known else np.nan),
             p_ts=np.zeros(n_par),
             p_ss=np.zeros(n_par) if known else np.full(n_par, np.inf),
-            logw=self.uniform[slot] + self.log_miss,
+            logw=self.uniform[slot]
+            + self.log_miss
+            + (0.0 if self.links is None else self.links.ends[p_row])
+            + self._bias(p_row),
             carry=carry,
             turn=turn,
         )
@@ -495,6 +528,8 @@ class Identifier:
         weight of the other tracks returns to "position unknown". Continuations below their
         robot's ``floor`` (log weight; pruned anyway) are not returned."""
         logw = tracks.logw + self.log_miss
+        if self.links is not None:
+            logw = logw + self.links.miss(tracks.row)
         # Tracks are kept sorted by robot, heaviest first (see _normalise_and_prune).
         rank = rank_in_group(tracks.slot)
         kept = rank < MISSED_PER_ROBOT
@@ -545,7 +580,7 @@ class Identifier:
         cand: np.ndarray,
         interval: Interval,
         pix_var: float,
-        log_bg: float,
+        log_bg: float | np.ndarray,
     ) -> Tracks:
         """Extend each parent track by candidate row ``cand`` (same length): weight and state."""
         model = self.model
@@ -617,7 +652,7 @@ class Identifier:
         cand: np.ndarray,
         interval: Interval,
         pix_var: float,
-        log_bg: float,
+        log_bg: float | np.ndarray,
     ) -> Tracks:
         """:meth:`_children` of tracks ``parent`` (indices into ``tracks``) when every track
         knows its heading and scale and carries no motion (``gate.moved`` is set): the same
@@ -698,6 +733,8 @@ class Identifier:
             logw = np.concatenate([np.zeros(0)] + [p.logw for p in parts])
         n_rows = 0 if self.rows is None else len(self.rows)
         log_rows = math.log(n_rows) if n_rows else -np.inf
+        if n_rows and self.row_bias is not None:
+            log_rows = float(np.logaddexp.reduce(self.row_bias))
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
         if len(slot):
@@ -748,14 +785,17 @@ class Identifier:
                 tracks.slot[~seen], weights=weights[~seen], minlength=self.n
             )
         uniform = np.exp(self.uniform)
-        total = np.bincount(slot, weights=seen_w, minlength=self.n) + n_rows * uniform + missing
+        spread = np.ones(n_rows) if self.row_bias is None else np.exp(self.row_bias)
+        total = (
+            np.bincount(slot, weights=seen_w, minlength=self.n) + spread.sum() * uniform + missing
+        )
         # Each weight divided by its robot's total before the (R, n) table is filled.
         belief = np.bincount(
             slot * n_rows + row, weights=seen_w / total[slot], minlength=self.n * n_rows
         ).reshape(self.n, n_rows)
         belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
         if uniform.any():
-            belief += (uniform / total)[:, None]
+            belief += (uniform / total)[:, None] * spread[None, :]
         self._belief = belief
         self._missing = missing / total
 

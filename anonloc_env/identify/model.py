@@ -43,6 +43,12 @@ class SensorModel:
             :meth:`anonloc_env.odometry.Interval.push_covariance` (a push spread evenly up to its
             bound), in (0, 1].
             ``from_config`` sets :data:`PUSH_SHARE`, measured.
+        others_sigma: standard deviation per component (m) of another robot's displacement
+            between two consecutive pictures, or ``None``. With it (and ``n_robots``), where
+            pictures have misses or false positives the other robots persist from picture to
+            picture (:mod:`anonloc_env.identify.others`) instead of being clutter drawn afresh.
+            ``from_config`` sets half the top speed times the picture interval (the spread of a
+            displacement uniform over the disc a robot can reach).
     """
 
     scale: float | None
@@ -57,6 +63,7 @@ class SensorModel:
     n_robots: int | None = None
     false_positives: float = 0.0
     push_share: float = 1.0
+    others_sigma: float | None = None
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -76,6 +83,8 @@ class SensorModel:
             raise ValueError(f"n_robots must be an integer >= 1 or None, got {self.n_robots!r}")
         check_number("false_positives", self.false_positives, 0.0)
         check_number("push_share", self.push_share, 0.0, 1.0, low_open=True)
+        if self.others_sigma is not None:
+            check_number("others_sigma", self.others_sigma, 0.0, low_open=True)
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
@@ -107,6 +116,7 @@ class SensorModel:
             n_robots=config.n_robots,
             false_positives=cam.false_positives,
             push_share=PUSH_SHARE,
+            others_sigma=0.5 * config.robot.v_max * config.schedule.picture_interval,
         )
 
     @property

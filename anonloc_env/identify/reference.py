@@ -9,7 +9,10 @@ image, then ``x' = x + s R(theta) d`` plus the model's displacement noise, each 
 plus pixel noise), so a Kalman filter gives its likelihood exactly; ``theta0`` (uniform) and
 ``log s`` (uniform over the prior range) are integrated on a grid fine enough to resolve the
 narrowest likelihood. A detection of the robot weighs ``P_D f / lambda`` against one of the other
-detections (density ``lambda`` over the image, headings uniform), a miss ``1 - P_D``.
+detections (density ``lambda`` over the image, headings uniform), a miss ``1 - P_D``. Where the
+model lets the other robots persist (:func:`anonloc_env.identify.others.persists`), each link
+between consecutive pictures takes the very same weights as the identifier's
+(:func:`~anonloc_env.identify.others.links_between`) in place of ``1 / lambda`` and ``1``.
 
 Exact only where the model's heading is deterministic given ``theta0``: the odometry must be
 noise-free (``model.odometry_noise == 0``) and no contact may have pushed a robot
@@ -27,6 +30,7 @@ import numpy as np
 
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify.model import LOG_2PI, SensorModel, log_background
+from anonloc_env.identify.others import links_between
 from anonloc_env.odometry import Interval
 
 #: Most tracks enumerated per robot.
@@ -132,6 +136,10 @@ def _one_robot(
     chunk: int,
 ) -> list[tuple[np.ndarray, float]]:
     log_pd, log_miss, log_bg, pix_var = _log_weights(model, pictures)
+    links = [None] + [
+        links_between(model, pictures[k - 1], pictures[k], log_bg[k], pix_var)
+        for k in range(1, len(pictures))
+    ]
     theta_grid, log_s_grid = _grids(model, intervals, robot, pix_var)
     th0 = np.repeat(theta_grid, len(log_s_grid))[None, :]
     s = np.exp(np.tile(log_s_grid, len(theta_grid)))[None, :]
@@ -141,9 +149,25 @@ def _one_robot(
     # Bounds on what one picture can multiply a track's weight by: at most the best detection
     # (a Kalman innovation is at least 2 pixel variances wide), at least a miss (always there).
     heading_gain = LOG_2PI - 0.5 * math.log(2 * math.pi * var_z) if model.orientation else 0.0
+    # With the others persisting, a link's weight in place of -log lambda is at most
+    # max(starts) + max(ends, 0) + max(extra, 0); a miss's lies in [min(ends, 0), max(ends, 0)].
+    link_up = [-b for b in log_bg]
+    miss_up = [0.0] * len(log_bg)
+    miss_down = [0.0] * len(log_bg)
+    for k, link in enumerate(links):
+        if link is not None and len(link.starts) and len(link.ends):
+            top_end = max(float(link.ends.max()), 0.0)
+            top_extra = max(float(link.extra.max()), 0.0) if len(link.extra) else 0.0
+            link_up[k] = float(link.starts.max()) + top_end + top_extra
+            miss_up[k] = top_end
+            miss_down[k] = min(float(link.ends.min()), 0.0)
     best_gain = [
-        max(log_miss, log_pd - b - LOG_2PI - math.log(2 * pix_var) + heading_gain, log_pd - b)
-        for b in log_bg
+        max(
+            log_miss + m,
+            log_pd + u - LOG_2PI - math.log(2 * pix_var) + heading_gain,
+            log_pd + u,
+        )
+        for u, m in zip(link_up, miss_up, strict=True)
     ]
     # State of every live track prefix at every grid point.
     track_rows = np.zeros((1, 0), dtype=np.int64)
@@ -174,11 +198,17 @@ def _one_robot(
         anchored, mean, var, loglik = anchored[parent], mean[parent], var[parent], loglik[parent]
         seen = row >= 0
         loglik[~seen] += log_miss
+        link = links[k]
+        if link is not None:  # the others persist: a miss weighed by what it leaves them
+            loglik[~seen] += link.miss(track_rows[~seen, -2])[:, None]
         if n_k:
             z = rows[np.maximum(row, 0)]
             first = seen & ~anchored
             again = seen & anchored
-            loglik[seen] += log_pd - log_bg[k]
+            if link is None:
+                loglik[seen] += log_pd - log_bg[k]
+            else:
+                loglik[seen] += log_pd + link.detect(track_rows[seen, -2], row[seen])[:, None]
             # First detection: uniform over the image.
             loglik[first] -= math.log(model.image_area)
             mean[first] = z[first][:, None, :2]
@@ -208,7 +238,7 @@ def _one_robot(
         rest = len(pictures) - 1 - k
         if rest:
             up = sum(best_gain[k + 1 :])
-            down = rest * log_miss
+            down = rest * log_miss + sum(miss_down[k + 1 :])
             keep = logw + up >= logw.max() + down - REFERENCE_MARGIN_NATS
             keep_i = np.flatnonzero(keep)
             track_rows, anchored = track_rows[keep_i], anchored[keep_i]

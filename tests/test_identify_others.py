@@ -1,0 +1,119 @@
+"""The other robots persist (``anonloc_env.identify.others``): exact sums; where it is used."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import replace
+
+import numpy as np
+from test_identify_reference import _model, simulate
+
+from anonloc_env.identify import Identifier
+from anonloc_env.identify.others import (
+    CUTOFF_SIGMAS,
+    END_FLOOR,
+    NEW_FLOOR,
+    _sum_matchings,
+    links_between,
+    persists,
+)
+
+
+def _brute_z(w: np.ndarray, w_end: float, w_new: float, rows: list[int], cols: list[int]) -> float:
+    """Sum over every partial matching of rows ``rows`` to columns ``cols`` (enumerated)."""
+    total = 0.0
+    for k in range(min(len(rows), len(cols)) + 1):
+        for chosen in itertools.combinations(rows, k):
+            for target in itertools.permutations(cols, k):
+                weight = math.prod(w[a, b] for a, b in zip(chosen, target, strict=True))
+                total += weight * w_end ** (len(rows) - k) * w_new ** (len(cols) - k)
+    return total
+
+
+def test_sum_matchings_is_the_enumeration() -> None:
+    rng = np.random.default_rng(3)
+    w = rng.random((4, 3)) * (rng.random((4, 3)) < 0.7)
+    for skip_row, skip_col in [(-1, -1), (1, -1), (-1, 2), (0, 1)]:
+        rows = [r for r in range(4) if r != skip_row]
+        cols = [q for q in range(3) if q != skip_col]
+        expected = _brute_z(w, 0.3, 0.2, rows, cols)
+        got = _sum_matchings(w, 0.3, 0.2, skip_row=skip_row, skip_col=skip_col)
+        assert math.isclose(got, expected, rel_tol=1e-12)
+
+
+def test_link_weights_are_leave_out_ratios_of_the_whole_association() -> None:
+    """Per component, as returned: equal to Z(-a, -b) / Z, Z(-a) / Z and Z(-b) / Z summed over
+    the two whole pictures at once (every pair, every row)."""
+    model = _model(p_detect=0.85, n_robots=6, false_positives=1.0, others_sigma=0.4)
+    pix_var = 1.0
+    rng = np.random.default_rng(7)
+    prev = np.column_stack([rng.uniform(0, 300, (5, 2)), np.zeros(5)])
+    rows = np.column_stack([prev[:4, :2] + rng.normal(0, 30, (4, 2)), np.zeros(4)])
+    links = links_between(model, prev, rows, 0.0, pix_var)
+    assert links is not None
+    # The association's weights, written out from the module docstring.
+    p_d, others = 0.85, 5
+    share = others * p_d / (others * p_d + 1.0)
+    var = (100.0 * 0.4) ** 2 + 2 * pix_var
+    tail = math.exp(-0.5 * CUTOFF_SIGMAS**2)
+    w_end = max(1.0 - share * p_d * (1.0 - tail), END_FLOOR)
+    w_new = max(1.0 + others * p_d * (1.0 - p_d + tail), NEW_FLOOR) / model.image_area
+    dist = np.linalg.norm(prev[:, None, :2] - rows[None, :, :2], axis=-1)
+    w = share * p_d * np.exp(-0.5 * dist**2 / var) / (2 * math.pi * var)
+    w[dist > CUTOFF_SIGMAS * math.sqrt(var)] = 0.0
+    all_a, all_b = list(range(5)), list(range(4))
+    z = _brute_z(w, w_end, w_new, all_a, all_b)
+    for a in range(5):
+        z_a = _brute_z(w, w_end, w_new, [x for x in all_a if x != a], all_b)
+        assert math.isclose(links.miss(np.array([a]))[0], math.log(z_a / z), abs_tol=1e-9)
+        for b in range(4):
+            z_ab = _brute_z(
+                w, w_end, w_new, [x for x in all_a if x != a], [y for y in all_b if y != b]
+            )
+            got = links.detect(np.array([a]), np.array([b]))[0]
+            assert math.isclose(got, math.log(z_ab / z), abs_tol=1e-9)
+    for b in range(4):
+        z_b = _brute_z(w, w_end, w_new, all_a, [y for y in all_b if y != b])
+        assert math.isclose(links.detect(np.array([-1]), np.array([b]))[0], math.log(z_b / z))
+
+
+def test_clutter_model_kept_without_misses_or_false_positives() -> None:
+    """Every robot seen and no false positive: the others' model is not used (beliefs are the
+    clutter model's, bit for bit); with misses it is, and the beliefs differ."""
+    clean = _model(n_robots=4, others_sigma=0.4)
+    assert not persists(clean)
+    assert persists(replace(clean, p_detect=0.9))
+    assert persists(replace(clean, false_positives=0.5))
+    assert not persists(replace(clean, p_detect=0.9, others_sigma=None))
+    rows, intervals, _ = simulate(clean, 4, 4, 0.0, 0)
+    beliefs = []
+    for model in (clean, replace(clean, others_sigma=None)):
+        ident = Identifier(model, 4)
+        for k, picture in enumerate(rows):
+            ident.update(picture, intervals[k - 1] if k else None)
+        beliefs.append(ident.belief().copy())
+    np.testing.assert_array_equal(beliefs[0], beliefs[1])
+
+
+def test_persisting_others_make_fewer_confident_mistakes() -> None:
+    """8 robots, 15 % misses, legs drawn as the model says (80 seeds, 6 pictures): confident
+    decisions (>= 0.99) on another row than the robot's own. Measured: 10 with the clutter
+    model, 3 with the others persisting; asserted: at most half (seeded, so exact; the
+    calibration of the same cases is in ``test_identify_calibration``)."""
+    counts = []
+    for sigma in (None, 0.3):
+        model = _model(p_detect=0.85, pixel_noise=2.0, n_robots=8, others_sigma=sigma)
+        wrong = 0
+        for seed in range(80):
+            rows, intervals, truths = simulate(model, 8, 6, 0.0, seed, leg=0.3, margin=0.0)
+            ident = Identifier(model, 8)
+            for k, picture in enumerate(rows):
+                ident.update(picture, intervals[k - 1] if k else None)
+                if len(picture) == 0:
+                    continue
+                belief = ident.belief()
+                sure = belief.max(axis=1) >= 0.99
+                wrong += int((sure & (belief.argmax(axis=1) != truths[k])).sum())
+        counts.append(wrong)
+    assert counts[1] <= 0.5 * counts[0], counts
