@@ -165,7 +165,7 @@ class Identifier:
         assert self.rows is not None
         prev = self.rows
         pix_var = self._pixel_var(np.concatenate([prev, rows]))
-        self.links = links_between(model, prev, rows, log_bg, pix_var)
+        self.links = links_between(model, prev, rows, log_bg, pix_var, self.links)
         var_d, _ = interval.variances(model.odometry_noise)
         s_high = model.scale_bounds[1]
         spread = model.scale_spread

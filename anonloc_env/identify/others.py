@@ -41,7 +41,7 @@ wrong. There the clutter model is already at the linked bound, so nothing is los
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,6 +57,8 @@ CUTOFF_SIGMAS = 2.5
 #: expected count of new rows): no association of the others is ever ruled out.
 END_FLOOR = 1e-3
 NEW_FLOOR = 0.05
+#: Least probability of a row's continuation kept for the next link (``Links.moved``).
+MOVE_FLOOR = 1e-3
 
 
 def persists(model: SensorModel) -> bool:
@@ -82,12 +84,19 @@ class Links:
         starts: ``(n,)``, ``log Z(-b) / Z``.
         keys: sorted ``a * n + b`` of the pairs that share a component; ``extra`` their
             ``log Z(-a, -b) Z / (Z(-a) Z(-b))``.
+        moved_row, moved, moved_p: how the newest picture's rows moved, for the next link
+            (:data:`MOVE_FLOOR`): row ``moved_row[m]`` continues a row of the previous picture
+            that lies ``moved[m]`` (image units) behind it with probability ``moved_p[m]`` in
+            the association of the others.
     """
 
     ends: np.ndarray
     starts: np.ndarray
     keys: np.ndarray
     extra: np.ndarray
+    moved_row: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    moved: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    moved_p: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def detect(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """``(K,)`` log weight of links ``a[k] -> b[k]`` (``a[k] < 0``: missed before)."""
@@ -112,7 +121,12 @@ class Links:
 
 
 def links_between(
-    model: SensorModel, prev: np.ndarray, rows: np.ndarray, log_bg: float, pix_var: float
+    model: SensorModel,
+    prev: np.ndarray,
+    rows: np.ndarray,
+    log_bg: float,
+    pix_var: float,
+    before: Links | None = None,
 ) -> Links | None:
     """The :class:`Links` between pictures ``prev`` and ``rows`` (``(n, >= 2)`` image rows), or
     ``None`` where the model keeps the clutter model (:func:`persists` is false).
@@ -122,12 +136,19 @@ def links_between(
         prev, rows: the previous picture and the newest one.
         log_bg: ``log lambda`` of the newest picture (the clutter model, for big components).
         pix_var: pixel variance per component (image units^2).
+        before: the links between the picture before ``prev`` and ``prev`` (``None``: none):
+            how ``prev``'s rows moved, repeated with ``model.others_repeat``.
+
+    Raises:
+        ValueError: ``before`` does not end at ``prev`` (its ``starts`` are not one per row).
     """
     if not persists(model):
         return None
     assert model.n_robots is not None
     assert model.others_sigma is not None
     n_a, n_b = len(prev), len(rows)
+    if before is not None and len(before.starts) != n_a:
+        raise ValueError(f"before must link to prev ({n_a} rows), got {len(before.starts)} starts")
     ends, starts = np.zeros(n_a), np.full(n_b, -log_bg)
     empty = Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))
     if n_a == 0 or n_b == 0:
@@ -136,14 +157,12 @@ def links_between(
     others = model.n_robots - 1
     robots = others * p_d
     share = robots / max(robots + model.false_positives, 1e-12)
-    scale = model.scale_bounds[1]
-    var = (scale * model.others_sigma) ** 2 + 2.0 * pix_var
     tail = math.exp(-0.5 * CUTOFF_SIGMAS**2)
     w_end = max(1.0 - share * p_d * (1.0 - tail), END_FLOOR)
     new = model.false_positives + others * p_d * ((1.0 - p_d) + tail)
     w_new = max(new, NEW_FLOOR) / model.image_area
-    i, j, dist = pairs_within(prev[:, :2], rows[:, :2], CUTOFF_SIGMAS * math.sqrt(var))
-    w_pair = share * p_d * np.exp(-0.5 * dist**2 / var) / (2.0 * math.pi * var)
+    i, j, w_pair = _edges(model, prev, rows, pix_var, before)
+    w_pair = share * p_d * w_pair
     comp_a, comp_b = _components(n_a, n_b, i, j)
     size_a = np.bincount(comp_a, minlength=n_a + n_b)
     size_b = np.bincount(comp_b, minlength=n_a + n_b)
@@ -152,6 +171,7 @@ def links_between(
     starts[:] = -math.log(w_new)
     keys: list[np.ndarray] = []
     extra: list[np.ndarray] = []
+    moved: list[tuple[int, int, float]] = []
     joined = np.flatnonzero((size_a > 0) & (size_b > 0))
     if len(joined):
         rows_of = _members(comp_a, joined)
@@ -170,17 +190,72 @@ def links_between(
             ends[ra] = np.log(z_a) - log_z
             starts[cb] = np.log(z_b) - log_z
             for r, x in enumerate(ra.tolist()):
-                z_ab = [
-                    _sum_matchings(w, w_end, w_new, skip_row=r, skip_col=q) for q in range(len(cb))
-                ]
+                z_ab = np.array(
+                    [
+                        _sum_matchings(w, w_end, w_new, skip_row=r, skip_col=q)
+                        for q in range(len(cb))
+                    ]
+                )
                 keys.append(x * n_b + cb)
                 extra.append(np.log(z_ab) - log_z - ends[x] - starts[cb])
+                # P(x -> cb[q]) in the association: W(x, b) Z(-x, -b) / Z.
+                p_move = w[r] * z_ab / math.exp(log_z)
+                for q in np.flatnonzero(p_move >= MOVE_FLOOR).tolist():
+                    moved.append((int(cb[q]), x, float(p_move[q])))
     if not keys:
         return empty
     key = np.concatenate(keys).astype(np.int64)
     value = np.concatenate(extra)
     order = np.argsort(key, kind="stable")
-    return Links(ends, starts, key[order], value[order])
+    move = np.array(moved, dtype=np.float64).reshape(-1, 3)
+    to, frm = move[:, 0].astype(np.int64), move[:, 1].astype(np.int64)
+    return Links(
+        ends,
+        starts,
+        key[order],
+        value[order],
+        moved_row=to,
+        moved=rows[to, :2] - prev[frm, :2],
+        moved_p=move[:, 2],
+    )
+
+
+def _edges(
+    model: SensorModel, prev: np.ndarray, rows: np.ndarray, pix_var: float, before: Links | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(a, b, g)``: the pairs of the association's graph and the others' displacement density
+    ``g(b - a)`` (image units^-2) of each, sorted by ``a`` then ``b``.
+
+    Drawn afresh, ``g`` is an isotropic Gaussian of ``others_sigma``; with ``others_repeat``, a
+    row that continued row ``a'`` of the picture before with probability ``p`` (``before``)
+    repeats that displacement with probability ``others_repeat p``: a Gaussian about it,
+    ``others_jitter`` plus ``others_turn`` of its length wide (plus the six pixel variances of
+    three positions). Each part is cut at :data:`CUTOFF_SIGMAS` (the same mass beyond the cut).
+    """
+    assert model.others_sigma is not None
+    scale = model.scale_bounds[1]
+    n_b = len(rows)
+    var = (scale * model.others_sigma) ** 2 + 2.0 * pix_var
+    i, j, dist = pairs_within(prev[:, :2], rows[:, :2], CUTOFF_SIGMAS * math.sqrt(var))
+    g = np.exp(-0.5 * dist**2 / var) / (2.0 * math.pi * var)
+    if before is None or model.others_repeat == 0.0 or len(before.moved_row) == 0:
+        return i, j, g
+    at, d = before.moved_row, before.moved
+    repeat = model.others_repeat * before.moved_p
+    var_e = (
+        (scale * model.others_jitter) ** 2
+        + (model.others_turn * np.hypot(d[:, 0], d[:, 1])) ** 2
+        + 6.0 * pix_var
+    )
+    cut = CUTOFF_SIGMAS * np.sqrt(var_e)
+    e, j_e, dist_e = pairs_within(prev[at, :2] + d, rows[:, :2], float(cut.max()))
+    near = dist_e <= cut[e]
+    e, j_e, dist_e = e[near], j_e[near], dist_e[near]
+    g_e = repeat[e] * np.exp(-0.5 * dist_e**2 / var_e[e]) / (2.0 * math.pi * var_e[e])
+    afresh = 1.0 - np.bincount(at, weights=repeat, minlength=len(prev))
+    key, where = np.unique(np.concatenate([i * n_b + j, at[e] * n_b + j_e]), return_inverse=True)
+    total = np.bincount(where, weights=np.concatenate([afresh[i] * g, g_e]), minlength=len(key))
+    return key // n_b, key % n_b, total
 
 
 def _components(n_a: int, n_b: int, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -30,7 +30,7 @@ import numpy as np
 
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify.model import LOG_2PI, SensorModel, log_background
-from anonloc_env.identify.others import links_between
+from anonloc_env.identify.others import Links, links_between
 from anonloc_env.odometry import Interval
 
 #: Most tracks enumerated per robot.
@@ -136,10 +136,11 @@ def _one_robot(
     chunk: int,
 ) -> list[tuple[np.ndarray, float]]:
     log_pd, log_miss, log_bg, pix_var = _log_weights(model, pictures)
-    links = [None] + [
-        links_between(model, pictures[k - 1], pictures[k], log_bg[k], pix_var)
-        for k in range(1, len(pictures))
-    ]
+    links: list[Links | None] = [None]
+    for k in range(1, len(pictures)):  # each link knows how the rows of the one before moved
+        links.append(
+            links_between(model, pictures[k - 1], pictures[k], log_bg[k], pix_var, links[-1])
+        )
     theta_grid, log_s_grid = _grids(model, intervals, robot, pix_var)
     th0 = np.repeat(theta_grid, len(log_s_grid))[None, :]
     s = np.exp(np.tile(log_s_grid, len(theta_grid)))[None, :]
