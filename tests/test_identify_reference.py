@@ -48,19 +48,30 @@ def simulate(
     margin: float = 0.15,
 ) -> tuple[list[np.ndarray], list[Interval], list[np.ndarray]]:
     """Rows, intervals and true rows drawn from the model (``true_scale``: the camera's; the
-    robots start uniform in the image less ``margin`` of its side on every edge)."""
+    robots start uniform in the image less ``margin`` of its side on every edge). Legs are
+    ``leg`` (m) per component in the robot's frame; with ``model.others_repeat`` a robot's
+    displacement from the second leg on repeats its previous one with that probability
+    (changed as the model says), the leg following from it."""
     rng = np.random.default_rng(seed)
     scale = model.scale if true_scale is None else true_scale
     assert scale is not None
     pos = rng.uniform(margin * SIDE, (1.0 - margin) * SIDE, (n, 2))
     heading = rng.uniform(-math.pi, math.pi, n)
     rows_out, intervals, truths = [], [], []
+    last = np.zeros((n, 2))  # each robot's previous displacement (image units)
     for k in range(pictures):
         if k > 0:
             d = rng.normal(0.0, leg, (n, 2))
             dphi = rng.uniform(-1.0, 1.0, n)
             local = scale * (1.0 + model.scale_spread * rng.standard_normal(n))
-            pos = pos + rotate(d, heading) * local[:, None]
+            step = rotate(d, heading) * local[:, None]
+            if model.others_repeat > 0.0 and k > 1:
+                again = rng.random(n) < model.others_repeat
+                wide = np.hypot(scale * model.others_jitter, model.others_turn * np.hypot(*last.T))
+                step[again] = (last + wide[:, None] * rng.standard_normal((n, 2)))[again]
+                d = rotate(step / local[:, None], -heading)
+            pos = pos + step
+            last = step
             heading = wrap_angle(heading + dphi)
             intervals.append(Interval.exact(d, dphi))
         seen = rng.random(n) < model.p_detect
@@ -103,6 +114,19 @@ CASES = {
     ),
     "misses-and-clutter-others-persist": (
         _model(p_detect=0.85, n_robots=4, false_positives=1.0, others_sigma=0.4),
+        4,
+        1.0,
+    ),
+    "misses-and-clutter-others-repeat": (
+        _model(
+            p_detect=0.85,
+            n_robots=4,
+            false_positives=1.0,
+            others_sigma=0.4,
+            others_repeat=0.85,
+            others_jitter=0.03,
+            others_turn=0.3,
+        ),
         4,
         1.0,
     ),
