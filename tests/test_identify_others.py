@@ -188,7 +188,7 @@ def test_repeated_displacements_are_a_mixture_over_the_previous_association() ->
     for a in range(4):
         afresh = 1.0 - 0.8 * move[kept[:, a], a].sum()
         w12[a] = afresh * gauss(a2 - a1[a], var)
-        for x in np.flatnonzero(kept[:, a]):
+        for x in np.flatnonzero(kept[:, a]).tolist():
             d = a1[a] - a0[x]
             var_e = (scale * 0.03) ** 2 + (0.3 * np.hypot(*d)) ** 2 + 6 * pix_var
             w12[a] += 0.8 * move[x, a] * gauss(a2 - (a1[a] + d), var_e)
