@@ -159,8 +159,8 @@ class Tracks:
 def shared(value: float, count: int, width: int = 0) -> np.ndarray:
     """``count`` copies of ``value`` (``(count, width)`` if ``width``), read-only and taking no
     memory (stride 0): a field that every track of a batch holds alike (a first leg's position
-    variance, a known scale, no carried motion). :meth:`Tracks.take`, :meth:`Tracks.concat` and
-    :meth:`Tracks.gather` keep such a field shared, so large batches do not write it out."""
+    variance, a known scale, no carried motion). ``Tracks.take``, ``concat`` and ``gather`` keep
+    such a field shared, so large batches do not write it out."""
     shape = (count, width) if width else (count,)
     return np.broadcast_to(np.float64(value), shape)
 
@@ -187,7 +187,7 @@ def _shared(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     return np.broadcast_to(first[0], (count, *first.shape[1:]))
 
 
-#: :meth:`Tracks.gather` copies runs of at least this many consecutive tracks as slices.
+#: ``Tracks.gather`` copies runs of at least this many consecutive tracks as slices.
 MIN_RUN = 32
 
 
