@@ -40,6 +40,8 @@ MISSED_PER_ROBOT = 32
 #: Candidates of the first leg scored per block (whole robots, about this many): small enough
 #: that the block's temporaries stay in cache and are not fresh memory to fault in.
 BLOCK = 8192
+#: Candidates of the anchored tracks scored per block (whole robots, about this many).
+ANCHORED_BLOCK = 65536
 
 
 class Pairs(NamedTuple):
@@ -183,40 +185,22 @@ class Identifier:
 
         # 1. Explicit tracks anchored at a row of the previous picture: candidate rows by pairs.
         tracks = self.tracks
-        gate = Gate.of(tracks, interval, model, pix_var, self._theta_var())
         anchored = np.flatnonzero(tracks.row >= 0)
         if len(anchored):
-            # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
-            offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
-            row = tracks.row[anchored]
-            starts, ends = offsets[row], offsets[row + 1]
-            parent = np.repeat(anchored, ends - starts)
-            cand = j_pair[expand_ranges(starts, ends - starts)]
-            keep = gate.passes(parent, rows, cand)
-            bg = self._link_bg(tracks.row[parent[keep]], cand[keep], log_bg)
-            if gate.moved is not None:
-                children = self._known_children(
-                    tracks, gate, parent[keep], rows, cand[keep], interval, pix_var, bg
-                )
-            else:
-                children = self._children(
-                    tracks.take(parent[keep]), rows, cand[keep], interval, pix_var, bg
-                )
-            parts.append(children)
+            pairs = Pairs(prev, rows, i_pair, j_pair, interval, pix_var, log_bg)
+            parts.append(self._anchored(tracks, anchored, pairs))
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
+            lost = tracks.take(missed)
+            gate = Gate.of(lost, interval, model, pix_var, self._theta_var())
             # Carried motion and grown position noise widen the search.
-            carried = float(np.hypot(*tracks.carry[missed].T).max())
-            wider = (
-                radius + s_high * carried + GATE_SIGMAS * math.sqrt(tracks.pos_var[missed].max())
-            )
-            a, b, _ = pairs_within(tracks.pos[missed], rows[:, :2], max(wider, 1e-9))
-            keep = gate.passes(missed[a], rows, b)
-            bg = self._link_bg(tracks.row[missed[a][keep]], b[keep], log_bg)
-            parts.append(
-                self._children(tracks.take(missed[a][keep]), rows, b[keep], interval, pix_var, bg)
-            )
+            carried = float(np.hypot(*lost.carry.T).max())
+            wider = radius + s_high * carried + GATE_SIGMAS * math.sqrt(lost.pos_var.max())
+            a, b, _ = pairs_within(lost.pos, rows[:, :2], max(wider, 1e-9))
+            keep = gate.passes(a, rows, b)
+            bg = self._link_bg(lost.row[a[keep]], b[keep], log_bg)
+            parts.append(self._children(lost.take(a[keep]), rows, b[keep], interval, pix_var, bg))
         # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair
         # (computed before 3, which it helps prune; appended after it).
         live = np.flatnonzero(np.isfinite(self.uniform))
@@ -264,6 +248,42 @@ class Identifier:
         if self.links is None:
             return log_bg
         return -self.links.detect(prev_row, cand)
+
+    def _anchored(self, tracks: Tracks, anchored: np.ndarray, pairs: Pairs) -> Tracks:
+        """The children of tracks ``anchored`` (indices into ``tracks``, each at a row of the
+        previous picture): every row paired with theirs that passes the gate, scored by
+        :meth:`_known_children` (heading and scale known, nothing carried) or :meth:`_children`.
+
+        Done in blocks of whole robots of about :data:`ANCHORED_BLOCK` candidates, so that the
+        temporaries stay small; each robot's children are pruned within its block, as they
+        would be all at once."""
+        prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
+        # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
+        offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
+        row = tracks.row[anchored]
+        counts = offsets[row + 1] - offsets[row]
+        robot_start = group_starts(tracks.slot[anchored])
+        robot_end = np.append(robot_start[1:], len(anchored))
+        ends = np.cumsum(counts)[robot_end - 1]  # candidates up to the end of each robot
+        cut = np.searchsorted(ends, np.arange(ANCHORED_BLOCK, int(ends[-1]), ANCHORED_BLOCK))
+        bounds = np.concatenate([[0], robot_end[cut], [len(anchored)]])
+        bounds = bounds[np.flatnonzero(np.diff(bounds, prepend=-1))]  # repeats dropped
+        theta_var = self._theta_var()
+        children = []
+        for lo, hi in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+            block = tracks.take(anchored[lo:hi])
+            gate = Gate.of(block, interval, self.model, pix_var, theta_var)
+            parent = np.repeat(np.arange(hi - lo), counts[lo:hi])
+            cand = j_pair[expand_ranges(offsets[block.row], counts[lo:hi])]
+            keep = gate.passes(parent, rows, cand)
+            parent, cand = parent[keep], cand[keep]
+            bg = self._link_bg(block.row[parent], cand, log_bg)
+            if gate.moved is not None:
+                child = self._known_children(block, gate, parent, rows, cand, interval, pix_var, bg)
+            else:
+                child = self._children(block.take(parent), rows, cand, interval, pix_var, bg)
+            children.append(child)
+        return Tracks.concat(children)
 
     def _from_uniform(
         self,
