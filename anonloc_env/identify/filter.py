@@ -192,15 +192,15 @@ class Identifier:
         # 2. Explicit tracks missed in the previous picture: candidates around their prediction.
         missed = np.flatnonzero(tracks.row < 0)
         if len(missed):
-            lost = tracks.take(missed)
-            gate = Gate.of(lost, interval, model, pix_var, self._theta_var())
+            unseen = tracks.take(missed)
+            gate = Gate.of(unseen, interval, model, pix_var, self._theta_var())
             # Carried motion and grown position noise widen the search.
-            carried = float(np.hypot(*lost.carry.T).max())
-            wider = radius + s_high * carried + GATE_SIGMAS * math.sqrt(lost.pos_var.max())
-            a, b, _ = pairs_within(lost.pos, rows[:, :2], max(wider, 1e-9))
+            carried = float(np.hypot(*unseen.carry.T).max())
+            wider = radius + s_high * carried + GATE_SIGMAS * math.sqrt(unseen.pos_var.max())
+            a, b, _ = pairs_within(unseen.pos, rows[:, :2], max(wider, 1e-9))
             keep = gate.passes(a, rows, b)
-            bg = self._link_bg(lost.row[a[keep]], b[keep], log_bg)
-            parts.append(self._children(lost.take(a[keep]), rows, b[keep], interval, pix_var, bg))
+            bg = self._link_bg(unseen.row[a[keep]], b[keep], log_bg)
+            parts.append(self._children(unseen.take(a[keep]), rows, b[keep], interval, pix_var, bg))
         # 4. The implicit uniform weight over previous rows: anchor it at every plausible pair
         # (computed before 3, which it helps prune; appended after it).
         live = np.flatnonzero(np.isfinite(self.uniform))
