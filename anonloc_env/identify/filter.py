@@ -471,7 +471,7 @@ class Identifier:
             # tracks then come out in runs that Tracks.gather copies as slices).
             group = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(sl))))
             key = group[keep] * (2.0 * PRUNE_NATS + 2.0) + (floor[keep] + PRUNE_NATS - logw[keep])
-            keep = keep[np.argsort(key, kind="stable")]
+            keep = keep[np.argsort(key)]  # deterministic; ties are equal weights
             end = count + len(keep)
             sk = out_slot[count:end] = sl[keep]
             out_pick[count:end] = pk[keep]
