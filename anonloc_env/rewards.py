@@ -167,12 +167,7 @@ class InformationGain:
 
     def _observe(self, picture: Picture, interval: Interval | None) -> np.ndarray:
         self.identifier.update(picture.detections, interval)
-        belief = self.identifier.belief()
-        true = picture.true_index
-        n = len(true)
-        seen = true >= 0
-        prob = self.identifier.missing().copy()
-        prob[seen] = belief[np.arange(n)[seen], true[seen]]
+        prob = self.identifier.belief_at(picture.true_index)  # "missing" where not detected
         return np.log(np.maximum(prob, 1e-300))
 
     def __call__(self, context: StepContext) -> np.ndarray:

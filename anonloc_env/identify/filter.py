@@ -117,6 +117,7 @@ class Identifier:
         # with the others persisting, a row that continues another robot's is less likely mine.
         self.row_bias: np.ndarray | None = None
         self._belief: np.ndarray | None = None
+        self._shares: tuple[np.ndarray, ...] | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
 
@@ -792,7 +793,8 @@ class Identifier:
         self.tracks = tracks
 
     def _compute_belief(self) -> None:
-        n_rows = 0 if self.rows is None else len(self.rows)
+        """Each robot's total weight and what each track's weight is of it; the ``(R, n)``
+        table itself is filled when :meth:`belief` first asks for it."""
         tracks = self.tracks
         weights = np.exp(tracks.logw)
         seen = tracks.row >= 0
@@ -805,18 +807,14 @@ class Identifier:
                 tracks.slot[~seen], weights=weights[~seen], minlength=self.n
             )
         uniform = np.exp(self.uniform)
+        n_rows = 0 if self.rows is None else len(self.rows)
         spread = np.ones(n_rows) if self.row_bias is None else np.exp(self.row_bias)
         total = (
             np.bincount(slot, weights=seen_w, minlength=self.n) + spread.sum() * uniform + missing
         )
-        # Each weight divided by its robot's total before the (R, n) table is filled.
-        belief = np.bincount(
-            slot * n_rows + row, weights=seen_w / total[slot], minlength=self.n * n_rows
-        ).reshape(self.n, n_rows)
-        belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
-        if uniform.any():
-            belief += (uniform / total)[:, None] * spread[None, :]
-        self._belief = belief
+        # Each weight divided by its robot's total before any table is filled.
+        self._shares = (slot, row, seen_w / total[slot], uniform / total, spread)
+        self._belief = None
         self._missing = missing / total
 
     def belief(self) -> np.ndarray:
@@ -824,14 +822,53 @@ class Identifier:
 
         A row of it sums to ``1 - missing()[i]``, not to 1: robot i may be out of the picture
         (missed). ``np.column_stack([belief(), missing()])`` is the full distribution over the
-        ``n + 1`` outcomes, rows summing to 1.
+        ``n + 1`` outcomes, rows summing to 1. Built on the first call after each picture (an
+        ``(R, n)`` table; :meth:`belief_at` reads one entry per robot without it).
 
         Raises:
             RuntimeError: before the first :meth:`update` (there is no picture yet).
         """
         if self._belief is None:
-            raise RuntimeError("no picture yet: call update() first")
+            if self._shares is None:
+                raise RuntimeError("no picture yet: call update() first")
+            slot, row, share, uniform, spread = self._shares
+            n_rows = len(spread)
+            belief = np.bincount(
+                slot * n_rows + row, weights=share, minlength=self.n * n_rows
+            ).reshape(self.n, n_rows)
+            belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
+            if uniform.any():
+                belief += uniform[:, None] * spread[None, :]
+            self._belief = belief
         return self._belief
+
+    def belief_at(self, rows: np.ndarray) -> np.ndarray:
+        """``(R,)``: ``belief()[i, rows[i]]``, or ``missing()[i]`` where ``rows[i] < 0``, the
+        same numbers without building the ``(R, n)`` table (what the env's reward reads).
+
+        Args:
+            rows: ``(R,)`` integer row of the newest picture for each robot, or -1.
+
+        Raises:
+            RuntimeError: before the first :meth:`update`.
+            ValueError: ``rows`` of the wrong shape, or a row outside ``[-1, n)``.
+        """
+        if self._shares is None or self._missing is None:
+            raise RuntimeError("no picture yet: call update() first")
+        slot, row, share, uniform, spread = self._shares
+        rows = np.asarray(rows)
+        if rows.shape != (self.n,) or not np.issubdtype(rows.dtype, np.integer):
+            raise ValueError(f"rows must be an integer array of shape ({self.n},), got {rows!r}")
+        if len(rows) and (rows.min() < -1 or rows.max() >= len(spread)):
+            raise ValueError(f"rows must lie in [-1, {len(spread)}), got {rows!r}")
+        match = row == rows[slot]
+        out = np.bincount(slot[match], weights=share[match], minlength=self.n)
+        out = out.astype(np.float64, copy=False)
+        seen = rows >= 0
+        if uniform.any():
+            out[seen] += uniform[seen] * spread[rows[seen]]
+        out[~seen] = self._missing[~seen]
+        return out
 
     def missing(self) -> np.ndarray:
         """``(R,)`` probability that robot i is not in the newest picture (the last column of the
