@@ -271,8 +271,12 @@ class Identifier:
         bounds = bounds[np.flatnonzero(np.diff(bounds, prepend=-1))]  # repeats dropped
         theta_var = self._theta_var()
         children = []
+        together = anchored[-1] - anchored[0] + 1 == len(anchored)  # a range: blocks are views
         for lo, hi in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-            block = tracks.take(anchored[lo:hi])
+            if together:
+                block = tracks.window(int(anchored[lo]), int(anchored[hi - 1]) + 1)
+            else:
+                block = tracks.take(anchored[lo:hi])
             gate = Gate.of(block, interval, self.model, pix_var, theta_var)
             parent = np.repeat(np.arange(hi - lo), counts[lo:hi])
             cand = j_pair[expand_ranges(offsets[block.row], counts[lo:hi])]

@@ -81,6 +81,10 @@ class Tracks:
             *(slot if f == "slot" else _take(getattr(self, f), index, len(slot)) for f in FIELDS)
         )
 
+    def window(self, start: int, stop: int) -> Tracks:
+        """Tracks ``start:stop``, as views (nothing copied)."""
+        return Tracks(*(getattr(self, f)[start:stop] for f in FIELDS))
+
     @staticmethod
     def concat(parts: list[Tracks]) -> Tracks:
         """The tracks of ``parts`` one after the other (a lone part itself, not a copy)."""
