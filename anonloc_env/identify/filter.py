@@ -25,11 +25,13 @@ from anonloc_env.identify.tracks import (
     Tracks,
     direction_only,
     group_starts,
+    is_shared,
     kalman,
     orientation,
     rank_in_group,
     scale_free,
     shared,
+    take_field,
 )
 from anonloc_env.neighbours import expand_ranges, pairs_within
 from anonloc_env.odometry import Interval
@@ -693,13 +695,16 @@ class Identifier:
         slot = tracks.slot[parent]
         z = rows[cand]
         var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
-        s, rho0 = gate.scale[parent], gate.rho0[parent]
+        count = len(parent)
+        s, rho0 = take_field(gate.scale, parent, count), gate.rho0[parent]
         th, ptt = tracks.theta[parent], tracks.p_tt[parent]
-        log_s, p_ts, p_ss = tracks.log_s[parent], tracks.p_ts[parent], tracks.p_ss[parent]
+        log_s, p_ts, p_ss = (
+            take_field(f, parent, count) for f in (tracks.log_s, tracks.p_ts, tracks.p_ss)
+        )
         # _kalman_heading, with Geometry's base variance.
         b = (
             pix_var
-            + tracks.pos_var[parent]
+            + take_field(tracks.pos_var, parent, count)
             + s**2 * var_d_all[slot]
             + (model.scale_spread * s * rho0) ** 2
         )
@@ -713,7 +718,10 @@ class Identifier:
         loglik = -LOG_2PI - 0.5 * np.log(b * a) - 0.5 * maha
         theta = th + ptt * h_e / a + interval.dphi[slot]
         p_tt = np.maximum(ptt * b / a, 1e-14) + var_dphi_all[slot]
-        general = (p_ss != 0.0) | (p_ts != 0.0)
+        if is_shared(p_ss) and is_shared(p_ts) and p_ss[0] == 0.0 and p_ts[0] == 0.0:
+            general = np.zeros(count, dtype=bool)  # the scale known, as it is in a first leg
+        else:
+            general = (p_ss != 0.0) | (p_ts != 0.0)
         if interval.push is not None:
             general |= interval.push[slot] > 0
         if general.any():
@@ -722,6 +730,7 @@ class Identifier:
             child = Child.start(sub)
             kalman(np.ones(len(g), bool), Geometry(sub, z[g], interval, model, pix_var), sub, child)
             loglik[g], theta[g], p_tt[g] = child.loglik, child.theta, child.p_tt
+            log_s, p_ts, p_ss = np.array(log_s), np.array(p_ts), np.array(p_ss)  # own copies
             log_s[g], p_ts[g], p_ss[g] = child.log_s, child.p_ts, child.p_ss
         if model.orientation:
             orientation(z[:, 2], self._theta_var(), theta, p_tt, loglik)
@@ -739,9 +748,9 @@ class Identifier:
             pos_var=shared(pix_var, count),
             theta=wrap_angle(theta[keep]),
             p_tt=p_tt[keep],
-            log_s=log_s[keep],
-            p_ts=p_ts[keep],
-            p_ss=p_ss[keep],
+            log_s=take_field(log_s, keep, count),
+            p_ts=take_field(p_ts, keep, count),
+            p_ss=take_field(p_ss, keep, count),
             logw=logw[keep],
             carry=shared(0.0, count, 2),
             turn=shared(0.0, count),

@@ -14,7 +14,7 @@ import numpy as np
 
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify.model import SensorModel
-from anonloc_env.identify.tracks import Tracks
+from anonloc_env.identify.tracks import Tracks, is_shared
 from anonloc_env.odometry import Interval
 
 #: Hypotheses more than this many nats below their robot's best are dropped (a factor 3e-7:
@@ -116,7 +116,10 @@ class Gate:
         theta_var: float,
     ) -> Gate:
         """:meth:`of` when every track knows its heading and scale (the same arithmetic)."""
-        s = np.exp(tracks.log_s)
+        if is_shared(tracks.log_s):  # one scale for all: its exp once
+            s = np.broadcast_to(np.exp(tracks.log_s[:1]), (len(tracks),))
+        else:
+            s = np.exp(tracks.log_s)
         theta = tracks.theta
         c, sn = np.cos(theta), np.sin(theta)
         moved = np.empty((len(tracks), 2))

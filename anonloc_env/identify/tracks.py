@@ -78,7 +78,10 @@ class Tracks:
         """The tracks ``index`` (an index array or mask); shared fields stay shared."""
         slot = self.slot[index]
         return Tracks(
-            *(slot if f == "slot" else _take(getattr(self, f), index, len(slot)) for f in FIELDS)
+            *(
+                slot if f == "slot" else take_field(getattr(self, f), index, len(slot))
+                for f in FIELDS
+            )
         )
 
     def window(self, start: int, stop: int) -> Tracks:
@@ -169,13 +172,14 @@ def shared(value: float, count: int, width: int = 0) -> np.ndarray:
     return np.broadcast_to(np.float64(value), shape)
 
 
-def _is_shared(a: np.ndarray) -> bool:
+def is_shared(a: np.ndarray) -> bool:
+    """Whether ``a`` is a shared field (see :func:`shared`)."""
     return a.ndim > 0 and a.strides[0] == 0 and len(a) > 0
 
 
-def _take(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
+def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
     """``a[index]`` (``count`` long); a shared field stays shared."""
-    if _is_shared(a):
+    if is_shared(a):
         return np.broadcast_to(a[0], (count, *a.shape[1:]))
     return a[index]
 
@@ -184,7 +188,7 @@ def _shared(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
     ``None`` if they do not."""
     first = arrays[0]
-    if not all(_is_shared(a) for a in arrays):
+    if not all(is_shared(a) for a in arrays):
         return None
     if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
         return None
