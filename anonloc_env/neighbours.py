@@ -1,9 +1,9 @@
 """Fixed-radius neighbour search between two point sets, in numpy alone.
 
 A uniform grid (spatial hashing) with cells as wide as the search radius: each point of ``a`` only
-looks at the points of ``b`` in its own cell and the 8 around it. For points spread over an image
-this costs O((n + m) log m) with no Python loop over points, like a k-d tree query, and needs no
-scipy (the environment's reward uses it).
+looks at the points of ``b`` in its own cell and the 8 around it (three ranges of consecutive cell
+keys, one per column). For points spread over an image this costs O((n + m) log m) with no Python
+loop over points, like a k-d tree query, and needs no scipy (the environment's reward uses it).
 """
 
 from __future__ import annotations
@@ -47,19 +47,19 @@ def pairs_within(
     key_b = cell_b[:, 0] * stride + cell_b[:, 1]
     order = np.argsort(key_b, kind="stable")
     sorted_keys = key_b[order]
+    key_a = cell_a[:, 0] * stride + cell_a[:, 1]
     found_i, found_j = [], []
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            keys = (cell_a[:, 0] + dx) * stride + (cell_a[:, 1] + dy)
-            lo = np.searchsorted(sorted_keys, keys, side="left")
-            hi = np.searchsorted(sorted_keys, keys, side="right")
-            counts = hi - lo
-            found_i.append(np.repeat(np.arange(len(a)), counts))
-            found_j.append(order[expand_ranges(lo, counts)])
+    for dx in (-1, 0, 1):  # the three cells of a column are consecutive keys: one range each
+        keys = key_a + dx * stride
+        lo = np.searchsorted(sorted_keys, keys - 1, side="left")
+        hi = np.searchsorted(sorted_keys, keys + 1, side="right")
+        counts = hi - lo
+        found_i.append(np.repeat(np.arange(len(a)), counts))
+        found_j.append(order[expand_ranges(lo, counts)])
     i = np.concatenate(found_i)
     j = np.concatenate(found_j)
     dist = np.hypot(*(b[j] - a[i]).T)
     keep = dist <= radius
     i, j, dist = i[keep], j[keep], dist[keep]
-    sort = np.lexsort((j, i))
+    sort = np.argsort(i * len(b) + j, kind="stable")  # by i, then j (three sorted runs)
     return i[sort], j[sort], dist[sort]

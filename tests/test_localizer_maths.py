@@ -26,6 +26,7 @@ def test_pairs_within_matches_brute_force() -> None:
     brute = {(p, q) for p in range(80) for q in range(90) if np.hypot(*(a[p] - b[q])) <= 6.0}
     assert set(zip(i.tolist(), j.tolist(), strict=True)) == brute
     np.testing.assert_allclose(dist, np.hypot(*(b[j] - a[i]).T))
+    assert (np.diff(i * 90 + j) > 0).all()  # sorted by i, then j (the identifier relies on it)
 
 
 def test_match_nearest_pairs_each_point_with_its_closest() -> None:
