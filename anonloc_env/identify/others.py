@@ -189,46 +189,54 @@ def links_between(
     # A row alone: Z = w_end, Z(-a) = 1. A column alone: Z(-b) / Z = 1 / w_new.
     ends[:] = -math.log(w_end)
     starts[:] = -math.log(w_new)
-    keys: list[np.ndarray] = []
-    extra: list[np.ndarray] = []
-    moved: list[tuple[int, int, float]] = []
-    joined = np.flatnonzero((size_a > 0) & (size_b > 0))
-    if len(joined):
-        rows_of = _members(comp_a, joined)
-        cols_of = _members(comp_b, joined)
-        edge = {(int(x), int(y)): float(w) for x, y, w in zip(i, j, w_pair, strict=True)}
-        for c in joined.tolist():
-            ra, cb = rows_of[c], cols_of[c]
-            if len(ra) > MAX_COMPONENT or len(cb) > MAX_COMPONENT:
-                ends[ra] = 0.0
-                starts[cb] = -log_bg
-                continue
-            w = np.array([[edge.get((int(x), int(y)), 0.0) for y in cb] for x in ra])
-            log_z = math.log(_sum_matchings(w, w_end, w_new))
-            z_a = [_sum_matchings(w, w_end, w_new, skip_row=r) for r in range(len(ra))]
-            z_b = [_sum_matchings(w, w_end, w_new, skip_col=q) for q in range(len(cb))]
-            ends[ra] = np.log(z_a) - log_z
-            starts[cb] = np.log(z_b) - log_z
-            for r, x in enumerate(ra.tolist()):
-                z_ab = np.array(
-                    [
-                        _sum_matchings(w, w_end, w_new, skip_row=r, skip_col=q)
-                        for q in range(len(cb))
-                    ]
-                )
-                keys.append(x * n_b + cb)
-                extra.append(np.log(z_ab) - log_z - ends[x] - starts[cb])
-                # P(x -> cb[q]) in the association: W(x, b) Z(-x, -b) / Z.
-                p_move = w[r] * z_ab / math.exp(log_z)
-                for q in np.flatnonzero(p_move >= MOVE_FLOOR).tolist():
-                    moved.append((int(cb[q]), x, float(p_move[q])))
-    if not keys:
+    joined = (size_a > 0) & (size_b > 0)
+    big = joined & ((size_a > MAX_COMPONENT) | (size_b > MAX_COMPONENT))
+    # A component too big to sum exactly keeps the clutter model for its rows.
+    ends[big[comp_a]] = 0.0
+    starts[big[comp_b]] = -log_bg
+    exact = joined & ~big
+    if not exact.any():
         return empty
+    rank_a, rank_b = _rank_in_label(comp_a), _rank_in_label(comp_b)
+    keys, extra, moved = [], [], []
+    shapes = size_a[exact] * (MAX_COMPONENT + 1) + size_b[exact]
+    for shape in _distinct(shapes)[0].tolist():
+        na, nb = divmod(shape, MAX_COMPONENT + 1)
+        comps = np.flatnonzero(exact)[shapes == shape]  # increasing labels
+        slot = np.full(n_a + n_b, -1)
+        slot[comps] = np.arange(len(comps))
+        # The components' rows and columns, by label then index: (C, na) and (C, nb).
+        in_a = np.flatnonzero(slot[comp_a] >= 0)
+        ra = in_a[np.lexsort((in_a, comp_a[in_a]))].reshape(len(comps), na)
+        in_b = np.flatnonzero(slot[comp_b] >= 0)
+        cb = in_b[np.lexsort((in_b, comp_b[in_b]))].reshape(len(comps), nb)
+        w = np.zeros((len(comps), na, nb))
+        e = np.flatnonzero(slot[comp_a[i]] >= 0)
+        w[slot[comp_a[i[e]]], rank_a[i[e]], rank_b[j[e]]] = w_pair[e]
+        sums = _leave_out_sums(w, w_end, w_new)
+        z, z_a, z_b, z_ab = sums[:, 0, 0], sums[:, 1:, 0], sums[:, 0, 1:], sums[:, 1:, 1:]
+        log_z = np.log(z)[:, None]
+        ends[ra] = np.log(z_a) - log_z
+        starts[cb] = np.log(z_b) - log_z
+        keys.append((ra[:, :, None] * n_b + cb[:, None, :]).ravel())
+        extra.append(
+            (
+                np.log(z_ab) - log_z[:, :, None] - ends[ra][:, :, None] - starts[cb][:, None, :]
+            ).ravel()
+        )
+        # P(a -> b) in the association: W(a, b) Z(-a, -b) / Z.
+        p_move = (w * z_ab / z[:, None, None]).ravel()
+        frm = np.broadcast_to(ra[:, :, None], w.shape).ravel()
+        to = np.broadcast_to(cb[:, None, :], w.shape).ravel()
+        label = np.broadcast_to(comps[:, None, None], w.shape).ravel()
+        keep = p_move >= MOVE_FLOOR
+        moved.append(np.stack([label[keep], frm[keep], to[keep], p_move[keep]], 1))
     key = np.concatenate(keys).astype(np.int64)
     value = np.concatenate(extra)
     order = np.argsort(key, kind="stable")
-    move = np.array(moved, dtype=np.float64).reshape(-1, 3)
-    to, frm = move[:, 0].astype(np.int64), move[:, 1].astype(np.int64)
+    move = np.concatenate(moved)
+    move = move[np.lexsort((move[:, 2], move[:, 1], move[:, 0]))]  # by component, row, column
+    frm, to = move[:, 1].astype(np.int64), move[:, 2].astype(np.int64)
     return Links(
         ends,
         starts,
@@ -236,7 +244,7 @@ def links_between(
         value[order],
         moved_row=to,
         moved=rows[to, :2] - prev[frm, :2],
-        moved_p=move[:, 2],
+        moved_p=move[:, 3],
     )
 
 
@@ -273,7 +281,7 @@ def _edges(
     e, j_e, dist_e = e[near], j_e[near], dist_e[near]
     g_e = repeat[e] * np.exp(-0.5 * dist_e**2 / var_e[e]) / (2.0 * math.pi * var_e[e])
     afresh = 1.0 - np.bincount(at, weights=repeat, minlength=len(prev))
-    key, where = np.unique(np.concatenate([i * n_b + j, at[e] * n_b + j_e]), return_inverse=True)
+    key, where = _distinct(np.concatenate([i * n_b + j, at[e] * n_b + j_e]))
     total = np.bincount(where, weights=np.concatenate([afresh[i] * g, g_e]), minlength=len(key))
     return key // n_b, key % n_b, total
 
@@ -294,13 +302,27 @@ def _components(n_a: int, n_b: int, i: np.ndarray, j: np.ndarray) -> tuple[np.nd
         label = new
 
 
-def _members(label: np.ndarray, which: np.ndarray) -> dict[int, np.ndarray]:
-    """Indices carrying each label in ``which``, increasing."""
+def _distinct(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(values, return_inverse=True)``, without ``np.unique``: its first call in a
+    process imports ``numpy.ma`` (15 ms)."""
+    order = np.argsort(values, kind="stable")
+    ordered = values[order]
+    new = np.empty(len(values), dtype=bool)
+    new[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=new[1:])
+    where = np.empty(len(values), dtype=np.int64)
+    where[order] = np.cumsum(new) - 1
+    return ordered[new], where
+
+
+def _rank_in_label(label: np.ndarray) -> np.ndarray:
+    """Position of each index among the indices that carry its label, in increasing order."""
     order = np.argsort(label, kind="stable")
     sorted_label = label[order]
-    lo = np.searchsorted(sorted_label, which, side="left")
-    hi = np.searchsorted(sorted_label, which, side="right")
-    return {int(c): order[a:b] for c, a, b in zip(which, lo, hi, strict=True)}
+    start = np.searchsorted(sorted_label, sorted_label, side="left")
+    rank = np.empty(len(label), dtype=np.int64)
+    rank[order] = np.arange(len(label)) - start
+    return rank
 
 
 def _sum_matchings(
@@ -308,26 +330,40 @@ def _sum_matchings(
 ) -> float:
     """Sum over the partial matchings of ``w`` (rows x columns, 0: no edge) of the product of
     the matched weights, ``w_end`` per unmatched row and ``w_new`` per unmatched column; row
-    ``skip_row`` and column ``skip_col`` left out (dynamic programming over the set of used
-    columns)."""
-    n_a, n_b = w.shape
+    ``skip_row`` and column ``skip_col`` left out. One entry of :func:`_leave_out_sums`."""
+    return float(_leave_out_sums(w[None], w_end, w_new)[0, skip_row + 1, skip_col + 1])
+
+
+def _leave_out_sums(w: np.ndarray, w_end: float, w_new: float) -> np.ndarray:
+    """``(C, rows + 1, columns + 1)``: for each of the ``C`` components ``w`` (``(C, rows,
+    columns)``, 0: no edge), the sum over its partial matchings of the product of the matched
+    weights, ``w_end`` per unmatched row and ``w_new`` per unmatched column, with row ``r`` and
+    column ``q`` left out at ``[c, r + 1, q + 1]`` (index 0: none left out).
+
+    Dynamic programming over the set of used columns, every component and every leave-out at
+    once: a left-out row adds neither ``w_end`` nor edges, a left-out column takes no edge and
+    counts for no ``w_new``."""
+    n_c, n_a, n_b = w.shape
+    skip_row = np.repeat(np.arange(-1, n_a), n_b + 1)  # one variant per (row, column) left out
+    skip_col = np.tile(np.arange(-1, n_b), n_a + 1)
     masks = np.arange(1 << n_b)
-    f = np.zeros(1 << n_b)
-    f[0] = 1.0
+    f = np.zeros((n_c, len(skip_row), 1 << n_b))
+    f[:, :, 0] = 1.0
     for r in range(n_a):
-        if r == skip_row:
-            continue
-        g = f * w_end
-        for q in np.flatnonzero(w[r]).tolist():
-            if q == skip_col:
-                continue
+        active = skip_row != r
+        g = np.where(active[None, :, None], f * w_end, f)
+        for q in np.flatnonzero(w[:, r, :].any(axis=0)).tolist():  # columns with an edge
             bit = 1 << q
             free = masks[(masks & bit) == 0]
-            g[free | bit] += f[free] * w[r, q]
+            weight = w[:, r, q][:, None] * (active & (skip_col != q))[None, :]
+            g[:, :, free | bit] += f[:, :, free] * weight[:, :, None]
         f = g
-    used = np.array([bin(m).count("1") for m in range(1 << n_b)])
-    n_free = n_b - used
-    if skip_col >= 0:
-        f = np.where((masks >> skip_col) & 1, 0.0, f)
-        n_free = n_free - 1
-    return float((f * w_new ** np.maximum(n_free, 0)).sum())
+    used = np.zeros(1 << n_b, dtype=np.int64)
+    for q in range(n_b):
+        used += (masks >> q) & 1
+    left = skip_col >= 0
+    n_free = n_b - used[None, :] - left[:, None]
+    has_skipped = left[:, None] & (((masks[None, :] >> np.maximum(skip_col, 0)[:, None]) & 1) > 0)
+    f = np.where(has_skipped[None], 0.0, f)
+    total = (f * w_new ** np.maximum(n_free, 0)[None]).sum(axis=2)
+    return total.reshape(n_c, n_a + 1, n_b + 1)
