@@ -63,3 +63,27 @@ def pairs_within(
     i, j, dist = i[keep], j[keep], dist[keep]
     sort = np.argsort(i * len(b) + j, kind="stable")  # by i, then j (three sorted runs)
     return i[sort], j[sort], dist[sort]
+
+
+def pairs_within_each(
+    a: np.ndarray, b: np.ndarray, radius: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every pair ``(i, j)`` with ``|a[i] - b[j]| <= radius[i]``: :func:`pairs_within` for the
+    points of ``a`` grouped by radius (within a factor 2), so that a few wide ones do not widen
+    the search of all. Sorted by ``i`` then ``j``, as :func:`pairs_within`."""
+    radius = np.asarray(radius, dtype=np.float64)
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    if len(a) == 0 or len(b) == 0:
+        return empty
+    level = np.floor(np.log2(np.maximum(radius, 1e-9))).astype(np.int64)
+    found = []
+    for lvl in np.sort(np.asarray(list(set(level.tolist())))).tolist():
+        members = np.flatnonzero(level == lvl)
+        i, j, dist = pairs_within(a[members], b, float(radius[members].max()))
+        near = dist <= radius[members][i]
+        found.append((members[i[near]], j[near], dist[near]))
+    i = np.concatenate([f[0] for f in found])
+    j = np.concatenate([f[1] for f in found])
+    dist = np.concatenate([f[2] for f in found])
+    sort = np.argsort(i * len(b) + j, kind="stable")
+    return i[sort], j[sort], dist[sort]

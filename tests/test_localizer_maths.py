@@ -13,7 +13,7 @@ import anonloc_env
 from anonloc_env.camera import Camera
 from anonloc_env.geometry import rotate
 from anonloc_env.identify import SensorModel, log_i0e, ring_loglik
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.neighbours import pairs_within, pairs_within_each
 from baselines import angular, linear, motion
 from baselines.localizers import CHI2_THRESHOLD, relative_scale_gradient
 from baselines.matching import decide, match_nearest, scores_to_belief
@@ -27,6 +27,17 @@ def test_pairs_within_matches_brute_force() -> None:
     assert set(zip(i.tolist(), j.tolist(), strict=True)) == brute
     np.testing.assert_allclose(dist, np.hypot(*(b[j] - a[i]).T))
     assert (np.diff(i * 90 + j) > 0).all()  # sorted by i, then j (the identifier relies on it)
+
+
+def test_pairs_within_each_uses_each_points_own_radius() -> None:
+    rng = np.random.default_rng(1)
+    a, b = rng.uniform(0, 50, (80, 2)), rng.uniform(0, 50, (90, 2))
+    radius = rng.choice([0.5, 3.0, 6.0, 20.0], 80)
+    i, j, dist = pairs_within_each(a, b, radius)
+    brute = {(p, q) for p in range(80) for q in range(90) if np.hypot(*(a[p] - b[q])) <= radius[p]}
+    assert set(zip(i.tolist(), j.tolist(), strict=True)) == brute
+    np.testing.assert_allclose(dist, np.hypot(*(b[j] - a[i]).T))
+    assert (np.diff(i * 90 + j) > 0).all()
 
 
 def test_match_nearest_pairs_each_point_with_its_closest() -> None:

@@ -33,7 +33,7 @@ from anonloc_env.identify.tracks import (
     shared,
     take_field,
 )
-from anonloc_env.neighbours import expand_ranges, pairs_within
+from anonloc_env.neighbours import expand_ranges, pairs_within, pairs_within_each
 from anonloc_env.odometry import Interval
 
 #: Only a robot's heaviest tracks are continued through a miss; the rest of their weight
@@ -197,10 +197,10 @@ class Identifier:
         if len(missed):
             unseen = tracks.take(missed)
             gate = Gate.of(unseen, interval, model, pix_var, self._theta_var())
-            # Carried motion and grown position noise widen the search.
-            carried = float(np.hypot(*unseen.carry.T).max())
-            wider = radius + s_high * carried + GATE_SIGMAS * math.sqrt(unseen.pos_var.max())
-            a, b, _ = pairs_within(unseen.pos, rows[:, :2], max(wider, 1e-9))
+            # Carried motion and grown position noise widen each track's search.
+            carried = np.hypot(unseen.carry[:, 0], unseen.carry[:, 1])
+            wider = radius + s_high * carried + GATE_SIGMAS * np.sqrt(unseen.pos_var)
+            a, b, _ = pairs_within_each(unseen.pos, rows[:, :2], np.maximum(wider, 1e-9))
             keep = gate.passes(a, rows, b)
             bg = self._link_bg(unseen.row[a[keep]], b[keep], log_bg)
             parts.append(self._children(unseen.take(a[keep]), rows, b[keep], interval, pix_var, bg))
