@@ -74,6 +74,15 @@ def add_grouped(total: np.ndarray, slot: np.ndarray, logw: np.ndarray) -> None:
     total[which] = np.logaddexp(total[which], shift + np.log(sums))
 
 
+def near_best(slot: np.ndarray, logw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(keep, floor)``: the indices of the weights ``logw`` at most :data:`PRUNE_NATS` below
+    the best of their robot (``slot`` grouped; never -inf or nan), and each one's floor."""
+    starts = group_starts(slot)
+    best = np.maximum.reduceat(logw, starts)
+    floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
+    return np.flatnonzero(logw >= floor), floor
+
+
 def wrap_fast(angle: np.ndarray) -> np.ndarray:
     """:func:`~anonloc_env.geometry.wrap_angle` up to rounding, in ``[-pi, pi]``: ``angle`` less
     its nearest multiple of 2 pi, a tenth of the cost of ``np.mod`` (for the first leg's blocks,
@@ -470,10 +479,8 @@ class Identifier:
             if self.row_bias is not None:
                 logw += self.row_bias[i_pair[pk]]
             # The prune.
+            keep, floor = near_best(sl, logw)
             first = group_starts(sl)
-            best = np.maximum.reduceat(logw, first)
-            floor = np.repeat(best, np.diff(np.append(first, len(sl)))) - PRUNE_NATS
-            keep = np.flatnonzero(logw >= floor)
             # Heaviest first within each robot, the order _normalise_and_prune keeps (the
             # tracks then come out in runs that Tracks.gather copies as slices).
             group = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(sl))))
@@ -651,10 +658,7 @@ class Identifier:
         # (the best over all hypotheses is at least as high): drop them before they are copied.
         # Parents come grouped by robot, so the best child of each robot is a reduceat.
         slot = parent.slot
-        starts = group_starts(slot)
-        best = np.maximum.reduceat(logw, starts)
-        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
-        keep = np.flatnonzero(logw >= floor)  # False for -inf and nan
+        keep, _ = near_best(slot, logw)
         return Tracks(
             slot=slot[keep],
             row=cand[keep],
@@ -736,10 +740,7 @@ class Identifier:
             orientation(z[:, 2], self._theta_var(), theta, p_tt, loglik)
         logw = tracks.logw[parent] + self.log_pd + loglik - log_bg
         # Pruned as _children does: more than PRUNE_NATS below the robot's best child.
-        starts = group_starts(slot)
-        best = np.maximum.reduceat(logw, starts)
-        floor = np.repeat(best, np.diff(np.append(starts, len(slot)))) - PRUNE_NATS
-        keep = np.flatnonzero(logw >= floor)
+        keep, _ = near_best(slot, logw)
         count = len(keep)
         return Tracks(
             slot=slot[keep],
