@@ -23,6 +23,7 @@ from anonloc_env.identify.model import (
     push_isotropic,
     ring_loglik,
 )
+from anonloc_env.neighbours import expand_ranges
 from anonloc_env.odometry import Interval
 
 
@@ -98,7 +99,7 @@ class Tracks:
         fields = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
-            same = _shared(arrays, count)
+            same = _alike(arrays, count)
             fields.append(np.concatenate(arrays) if same is None else same)
         return Tracks(*fields)
 
@@ -128,7 +129,7 @@ class Tracks:
         else:
             first, size = first[long], size[long]
             short = np.ones(len(index), dtype=bool)
-            short[expand_runs(first, size)] = False
+            short[expand_ranges(first, size)] = False
             at = np.flatnonzero(short)
             part = np.searchsorted(bounds, index[at], side="right") - 1
             where = [at[part == k] for k in range(len(parts))]
@@ -146,7 +147,7 @@ class Tracks:
         fields = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
-            same = _shared(arrays, len(index))
+            same = _alike(arrays, len(index))
             if same is not None:
                 fields.append(same)
                 continue
@@ -184,7 +185,7 @@ def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
     return a[index]
 
 
-def _shared(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
+def _alike(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
     ``None`` if they do not."""
     first = arrays[0]
@@ -201,15 +202,6 @@ MIN_RUN = 32
 
 def _is_identity(index: np.ndarray) -> bool:
     return bool(index[0] == 0 and (np.diff(index) == 1).all()) if len(index) else True
-
-
-def expand_runs(first: np.ndarray, size: np.ndarray) -> np.ndarray:
-    """Concatenate ``range(f, f + s)`` for every ``(f, s)``."""
-    total = int(size.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    ends = np.cumsum(size)
-    return np.arange(total, dtype=np.int64) + np.repeat(first - (ends - size), size)
 
 
 def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
