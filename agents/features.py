@@ -1,148 +1,136 @@
-"""Features extractors over the picture's rows, for SB3 policies (``policy_kwargs``).
+"""The learned excitation's network: a scorer over a robot's candidate commands.
 
-The rows of a picture are a set: shuffled, padded to a fixed count, with a mask. A policy that
-depends on their order would have to learn every permutation. Two extractors are invariant by
-construction and ignore padded rows exactly:
+:class:`CandidateScorer` (plain torch, shared by the SB3 policy and the RLlib module) reads one
+robot's observation (:mod:`agents.observation`): ``C`` candidates and the robot's context. Each
+candidate is encoded with the context by one shared network ``phi``; the encodings are averaged
+(Deep Sets, Zaheer et al., 2017); each candidate's logit is ``score(phi_c, mean)`` and the value
+is ``value(context, mean)``. So the logits are equivariant and the value invariant to the order
+of the candidates, and no weight depends on N, the camera or the clutter: one set of weights runs
+everywhere.
 
-* :class:`DeepSetsExtractor`: ``rho(own, mean_j phi(row_j, own), max_j phi(row_j, own))`` over
-  the unmasked rows (Zaheer et al., 2017).
-* :class:`AttentionExtractor`: multi-head attention with the robot's own state as the query and
-  the rows as keys and values, masked rows excluded from the softmax (Lee et al., 2019, pooling by
-  attention).
-
-:class:`FlatExtractor` is the comparison: the rows flattened in their given order (masked rows
-zeroed), concatenated with the own state, through an MLP of a similar parameter count.
-
-Usage::
+:class:`CandidatePolicy` is that scorer as an SB3 ``ActorCriticPolicy`` over the discrete choice
+of a candidate::
 
     from stable_baselines3 import PPO
-    from agents.features import DeepSetsExtractor
+    from agents.features import CandidatePolicy
 
-    model = PPO("MultiInputPolicy", vec_env,
-                policy_kwargs={"features_extractor_class": DeepSetsExtractor})
+    model = PPO(CandidatePolicy, vec_env)
 """
 
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
-import gymnasium as gym
 import torch
-from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from gymnasium import spaces
+from stable_baselines3.common.distributions import Distribution
+from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
-#: Extractors by name (``anonloc train --extractor``).
-EXTRACTORS: dict[str, type[BaseFeaturesExtractor]] = {}
+from agents.observation import CANDIDATE_FEATURES, CONTEXT_FEATURES
 
 
-def _sizes(observation_space: gym.spaces.Dict) -> tuple[int, int, int]:
-    rows = observation_space["rows"].shape
-    own = observation_space["own"].shape
-    assert rows is not None
-    assert own is not None
-    return rows[0], rows[1], own[0]
-
-
-def _mlp(sizes: list[int]) -> nn.Sequential:
+def _mlp(sizes: list[int], last_activation: bool = True) -> nn.Sequential:
     layers: list[nn.Module] = []
     for a, b in itertools.pairwise(sizes):
-        layers += [nn.Linear(a, b), nn.ReLU()]
+        layers += [nn.Linear(a, b), nn.Tanh()]
+    if not last_activation:
+        layers.pop()
     return nn.Sequential(*layers)
 
 
-class DeepSetsExtractor(BaseFeaturesExtractor):
-    """Masked Deep Sets over the rows, conditioned on the robot's own state.
+class CandidateScorer(nn.Module):
+    """Logits over a robot's candidates and the value of its state (see the module doc).
 
     Args:
-        observation_space: the policy observation space (:mod:`agents.observation`).
-        hidden: width of the per-row network ``phi``.
-        features_dim: size of the output.
-    """
-
-    def __init__(
-        self, observation_space: gym.spaces.Dict, hidden: int = 64, features_dim: int = 64
-    ) -> None:
-        super().__init__(observation_space, features_dim)
-        _, row_size, own_size = _sizes(observation_space)
-        self.phi = _mlp([row_size + own_size, hidden, hidden])
-        self.rho = _mlp([own_size + 2 * hidden, features_dim])
-
-    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
-        rows, mask, own = observations["rows"], observations["mask"], observations["own"]
-        count = rows.shape[1]
-        joined = torch.cat([rows, own.unsqueeze(1).expand(-1, count, -1)], dim=-1)
-        encoded = self.phi(joined)  # (B, D, H)
-        weights = mask.unsqueeze(-1)
-        total = weights.sum(dim=1).clamp(min=1.0)
-        mean = (encoded * weights).sum(dim=1) / total
-        # ReLU outputs are >= 0, so masked rows set to 0 never exceed a present row's maximum;
-        # with no row at all the maximum is 0.
-        peak = (encoded * weights).amax(dim=1)
-        return self.rho(torch.cat([own, mean, peak], dim=-1))
-
-
-class AttentionExtractor(BaseFeaturesExtractor):
-    """Masked multi-head attention: the robot's own state asks, the rows answer.
-
-    Args:
-        observation_space: the policy observation space (:mod:`agents.observation`).
-        hidden: width of the embeddings.
-        heads: attention heads (``hidden`` must be a multiple).
-        features_dim: size of the output.
+        hidden: width of the encodings.
+        candidate_features: features per candidate.
+        context_features: features of the context.
     """
 
     def __init__(
         self,
-        observation_space: gym.spaces.Dict,
         hidden: int = 64,
-        heads: int = 4,
-        features_dim: int = 64,
+        candidate_features: int = CANDIDATE_FEATURES,
+        context_features: int = CONTEXT_FEATURES,
     ) -> None:
-        super().__init__(observation_space, features_dim)
-        _, row_size, own_size = _sizes(observation_space)
-        self.embed_rows = _mlp([row_size + own_size, hidden])
-        self.embed_own = _mlp([own_size, hidden])
-        self.attention = nn.MultiheadAttention(hidden, heads, batch_first=True)
-        self.out = _mlp([own_size + hidden, features_dim])
+        super().__init__()
+        self.phi = _mlp([candidate_features + context_features, hidden, hidden])
+        self.score = _mlp([2 * hidden, hidden, 1], last_activation=False)
+        self.value = _mlp([context_features + hidden, hidden, 1], last_activation=False)
 
-    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
-        rows, mask, own = observations["rows"], observations["mask"], observations["own"]
-        count = rows.shape[1]
-        keys = self.embed_rows(torch.cat([rows, own.unsqueeze(1).expand(-1, count, -1)], dim=-1))
-        query = self.embed_own(own).unsqueeze(1)
-        absent = mask < 0.5
-        empty = absent.all(dim=1)
-        # A picture with no row at all: attend to the first (padded) row, then zero the result
-        # (a softmax over nothing would be NaN).
-        absent[:, 0] &= ~empty
-        pooled, _ = self.attention(query, keys, keys, key_padding_mask=absent, need_weights=False)
-        pooled = pooled.squeeze(1) * (~empty).unsqueeze(1).to(pooled.dtype)
-        return self.out(torch.cat([own, pooled], dim=-1))
+    def forward(
+        self, candidates: torch.Tensor, context: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(logits (B, C), value (B,))`` from ``candidates (B, C, F)`` and ``context (B, X)``."""
+        count = candidates.shape[1]
+        joined = torch.cat([candidates, context.unsqueeze(1).expand(-1, count, -1)], dim=-1)
+        encoded = self.phi(joined)  # (B, C, H)
+        pooled = encoded.mean(dim=1)  # (B, H)
+        paired = torch.cat([encoded, pooled.unsqueeze(1).expand(-1, count, -1)], dim=-1)
+        logits = self.score(paired).squeeze(-1)
+        value = self.value(torch.cat([context, pooled], dim=-1)).squeeze(-1)
+        return logits, value
 
 
-class FlatExtractor(BaseFeaturesExtractor):
-    """The rows flattened in their order (masked rows zeroed) and the own state, through an MLP
-    (the order-dependent comparison).
+class CandidatePolicy(ActorCriticPolicy):
+    """:class:`CandidateScorer` as an SB3 actor-critic over ``Discrete(C)`` (which candidate).
 
     Args:
-        observation_space: the policy observation space (:mod:`agents.observation`).
-        hidden: width of the hidden layer.
-        features_dim: size of the output.
+        observation_space: :func:`agents.observation.policy_observation_space`.
+        action_space: :func:`agents.observation.policy_action_space`.
+        lr_schedule: SB3's learning-rate schedule.
+        hidden: width of the scorer's encodings.
+        **kwargs: passed to ``ActorCriticPolicy`` (``net_arch`` is not used).
     """
 
     def __init__(
-        self, observation_space: gym.spaces.Dict, hidden: int = 64, features_dim: int = 64
+        self,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+        lr_schedule: Any,
+        hidden: int = 64,
+        **kwargs: Any,
     ) -> None:
-        super().__init__(observation_space, features_dim)
-        count, row_size, own_size = _sizes(observation_space)
-        self.net = _mlp([count * row_size + count + own_size, hidden, features_dim])
+        self.hidden = hidden
+        kwargs.pop("net_arch", None)
+        super().__init__(observation_space, action_space, lr_schedule, net_arch=[], **kwargs)
 
-    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
-        rows, mask, own = observations["rows"], observations["mask"], observations["own"]
-        flat = (rows * mask.unsqueeze(-1)).flatten(1)
-        return self.net(torch.cat([flat, mask, own], dim=-1))
+    def _build(self, lr_schedule: Any) -> None:
+        self.scorer = CandidateScorer(self.hidden)
+        self.optimizer = self.optimizer_class(  # type: ignore[call-arg]  # SB3 types it loosely
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
 
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data["hidden"] = self.hidden
+        return data
 
-EXTRACTORS.update(
-    {"deepsets": DeepSetsExtractor, "attention": AttentionExtractor, "flat": FlatExtractor}
-)
+    def _evaluate(self, obs: Any) -> tuple[Distribution, torch.Tensor]:
+        logits, value = self.scorer(obs["candidates"].float(), obs["context"].float())
+        return self.action_dist.proba_distribution(action_logits=logits), value
+
+    def forward(
+        self, obs: Any, deterministic: bool = False
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        distribution, value = self._evaluate(obs)
+        actions = distribution.get_actions(deterministic=deterministic)
+        return actions, value.unsqueeze(-1), distribution.log_prob(actions)
+
+    def evaluate_actions(
+        self, obs: Any, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
+        distribution, value = self._evaluate(obs)
+        return value.unsqueeze(-1), distribution.log_prob(actions), distribution.entropy()
+
+    def get_distribution(self, obs: Any) -> Distribution:
+        return self._evaluate(obs)[0]
+
+    def predict_values(self, obs: Any) -> torch.Tensor:
+        return self._evaluate(obs)[1].unsqueeze(-1)
+
+    def logits(self, obs: Any) -> torch.Tensor:
+        """``(B, C)`` the candidates' logits for a batch of observations (tensors)."""
+        return self.scorer(obs["candidates"].float(), obs["context"].float())[0]

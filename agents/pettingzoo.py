@@ -9,8 +9,8 @@ views of its batched arrays.
 | | |
 |---|---|
 | Agents | `robot_0` ... `robot_{N-1}`, all alive for the whole episode |
-| Action shape | `(2,)` float32 in [-1, 1] (see :meth:`agents.crew.Crew.step`) |
-| Observation | `Dict`: `rows (D, 6)`, `mask (D,)`, `own (12,)`; or flat `(7 D + 12,)` |
+| Action | `Discrete(C)`: which candidate command to drive (see :meth:`agents.crew.Crew.step`) |
+| Observation | `Dict`: `candidates (C, 7)`, `context (10,)`; or flat `(7 C + 10,)` |
 | Import | `from agents.pettingzoo import BeliefParallelEnv` |
 """
 
@@ -23,8 +23,13 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from agents.crew import Crew
-from agents.observation import OWN_FEATURES, ROW_FEATURES, policy_observation_space
-from anonloc_env.actions import stack_actions
+from agents.observation import (
+    CANDIDATE_FEATURES,
+    CANDIDATES,
+    CONTEXT_FEATURES,
+    policy_action_space,
+    policy_observation_space,
+)
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import PRESETS
@@ -33,20 +38,27 @@ from anonloc_env.rewards import EnergyCost
 OBSERVATION_FORMS = ("dict", "flat")
 
 
-def flat_size(capacity: int) -> int:
-    """Length of a flat observation for pictures of ``capacity`` rows."""
-    return capacity * ROW_FEATURES + capacity + OWN_FEATURES
+def flat_size(candidates: int = CANDIDATES) -> int:
+    """Length of a flat observation with ``candidates`` candidates."""
+    return candidates * CANDIDATE_FEATURES + CONTEXT_FEATURES
 
 
 def flatten(observation: dict[str, np.ndarray]) -> np.ndarray:
-    """``(R, 7 D + 12)`` float32: the batched ``rows`` (row-major), ``mask`` and ``own``.
-
-    Rows that hold no detection are already zero, so this is what
-    :class:`agents.features.FlatExtractor` reads."""
-    rows = observation["rows"]
+    """``(R, 7 C + 10)`` float32: the batched ``candidates`` (row-major), then ``context``."""
+    candidates = observation["candidates"]
     return np.concatenate(
-        [rows.reshape(rows.shape[0], -1), observation["mask"], observation["own"]], axis=1
+        [candidates.reshape(candidates.shape[0], -1), observation["context"]], axis=1
     )
+
+
+def unflatten(flat: np.ndarray, candidates: int = CANDIDATES) -> dict[str, np.ndarray]:
+    """The inverse of :func:`flatten` for ``(B, 7 C + 10)`` arrays (or tensors: only slicing
+    and reshaping)."""
+    split = candidates * CANDIDATE_FEATURES
+    return {
+        "candidates": flat[:, :split].reshape(-1, candidates, CANDIDATE_FEATURES),
+        "context": flat[:, split:],
+    }
 
 
 class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
@@ -55,10 +67,12 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
     ## Observation Space
     With ``observation="dict"`` (the default) each agent gets the dict of
     :func:`agents.observation.policy_observation_space`, the same as a slot of
-    :class:`agents.vec.AnonLocVecEnv`. With ``observation="flat"`` it gets those three arrays
-    concatenated into one float32 vector of :func:`flat_size` entries (``rows`` row-major, then
-    ``mask``, then ``own``): the form RLlib's default model takes (its encoders reject a
-    ``Dict`` space).
+    :class:`agents.vec.AnonLocVecEnv`. With ``observation="flat"`` it gets those two arrays
+    concatenated into one float32 vector of :func:`flat_size` entries (``candidates``
+    row-major, then ``context``): the form RLlib's modules take (:func:`unflatten` undoes it).
+
+    ## Action Space
+    ``Discrete(C)``: the candidate each robot drives until the next picture.
 
     ## Rewards
     The crew's (:meth:`agents.crew.Crew.step`): one step here is one picture interval (the
@@ -108,20 +122,19 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
         self.render_mode = render_mode
         self.possible_agents = list(self.crew.agents)
         self.agents: list[str] = []
-        capacity = self.crew.capacity
         # One space object per agent, built once (seeding one agent's space leaves the others).
         self.observation_spaces: dict[str, spaces.Space[Any]] = {
-            agent: self._space(capacity) for agent in self.possible_agents
+            agent: self._space() for agent in self.possible_agents
         }
         self.action_spaces: dict[str, spaces.Space[Any]] = {
-            agent: spaces.Box(-1.0, 1.0, (2,), np.float32) for agent in self.possible_agents
+            agent: policy_action_space() for agent in self.possible_agents
         }
         self.state_space = env.state_space
 
-    def _space(self, capacity: int) -> spaces.Space[Any]:
+    def _space(self) -> spaces.Space[Any]:
         if self.observation_form == "dict":
-            return policy_observation_space(capacity)
-        return spaces.Box(-np.inf, np.inf, (flat_size(capacity),), np.float32)
+            return policy_observation_space()
+        return spaces.Box(-np.inf, np.inf, (flat_size(),), np.float32)
 
     @property
     def max_cycles(self) -> int:
@@ -161,7 +174,10 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
         """One control step of every robot (each live agent needs an action)."""
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        result = self.crew.step(stack_actions(actions, self.agents))
+        missing = [agent for agent in self.agents if agent not in actions]
+        if missing:
+            raise ValueError(f"actions are missing for {missing}")
+        result = self.crew.step(np.asarray([actions[agent] for agent in self.agents]))
         agents = self.agents
         observations = self._split(result.observation)
         rewards = dict(zip(agents, result.reward.tolist(), strict=True))
@@ -181,9 +197,9 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
         """Per-agent row views of the crew's batched arrays (fresh arrays every step)."""
         if self.observation_form == "flat":
             return dict(zip(self.possible_agents, flatten(observation), strict=True))
-        rows, mask, own = observation["rows"], observation["mask"], observation["own"]
+        candidates, context = observation["candidates"], observation["context"]
         return {
-            agent: {"rows": rows[i], "mask": mask[i], "own": own[i]}
+            agent: {"candidates": candidates[i], "context": context[i]}
             for i, agent in enumerate(self.possible_agents)
         }
 

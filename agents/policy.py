@@ -1,104 +1,89 @@
 """A saved agent as an excitation, so it runs through the same teams, runner and tables as every
-baseline: ``baselines.make("agent", env, path=PATH)``.
+baseline: ``baselines.make("agent", env)`` (the bundled agent) or ``path=`` a saved one.
 
-Loading an agent unpickles parts of the file inside SB3 (``PPO.load``): load only files you trust.
-Only the path the user names is ever loaded.
+The policy as trained is the policy users get: at every picture each robot's candidates are
+scored by the network and one is drawn from the resulting categorical distribution with the
+robot's own generator (:class:`LearnedExcitation`). There is no "mean action" variant: the draw
+is how identical robots running one policy choose different motions, in training and in use, and
+the team's seeds make it reproducible bit for bit.
+
+Loading an agent unpickles parts of the file inside SB3 (``PPO.load``): load only files you trust
+(the bundled agent ships with the package). Only the path the user names is ever loaded.
 """
 
 from __future__ import annotations
 
+import base64
 import json
+import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.crew import HeldCommands, condition_excitation
-from agents.observation import BeliefObserver
-from anonloc_env.camera import detection_capacity
-from anonloc_env.config import EnvConfig
+from agents.candidates import CandidateChooser
+from agents.crew import condition_excitation
+from agents.observation import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from baselines.excitations import Excitation
-from baselines.localizers import BayesLocalizer, Localizer
-from baselines.observations import Step
+
+#: The agent shipped with the package (``docs/agents.md`` names the command that trained it).
+BUNDLED = Path(__file__).parent / "data" / "agent.zip"
+#: The name that stands for :data:`BUNDLED` (``anonloc eval --agent bundled``).
+BUNDLED_NAME = "bundled"
 
 
-class LearnedExcitation(HeldCommands):
-    """The robots' commands from a trained SB3 policy reading its belief-annotated observations:
-    at every picture the policy chooses each robot's command, held until the next picture, with
-    the reverse-out-of-bumps reflex of :class:`agents.crew.HeldCommands` (as in training).
+def draw(logits: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
+    """``(R,)`` one candidate per robot, drawn from ``softmax(logits)`` ``(R, C)`` with robot
+    ``i``'s own generator (one uniform number each)."""
+    z = logits - logits.max(axis=1, keepdims=True)
+    p = np.exp(z)
+    cdf = np.cumsum(p, axis=1)
+    u = np.fromiter((rng.random() for rng in rngs), np.float64, len(rngs)) * cdf[:, -1]
+    return np.minimum((cdf <= u[:, None]).sum(axis=1), logits.shape[1] - 1)
 
-    It must be the excitation of a team whose localizer is a ``BayesLocalizer`` (the policy reads
-    that localizer's beliefs, see :mod:`agents.observation`).
+
+class LearnedExcitation(CandidateChooser):
+    """The robots' commands from a trained policy: at every picture each robot's candidates are
+    scored (:mod:`agents.observation`) and one is drawn with the robot's own generator; it is
+    held until the next picture, with the back-off after a bump (as in training).
+
+    It must be the excitation of a team whose localizer is a ``BayesLocalizer`` (the scores are
+    that localizer's predictions).
 
     Args:
-        model: a trained SB3 model (``predict(observation, deterministic=True)``).
-        config: the scenario.
-        deterministic: act on the policy's mean action (default; the robots still differ
-            through their dice), or sample the policy's Gaussian with each robot's own generator
-            (reproducible too: the team's seeds decide).
-        capacity: rows per picture ``D`` in the env's observations: the env's ``capacity`` (a
-            custom detector's, when it has one). None: the config's
-            (``anonloc_env.camera.detection_capacity``, the built-in camera's).
+        model: a trained SB3 model whose policy is :class:`agents.features.CandidatePolicy`.
+        threads: torch threads while scoring (set for the call, then restored): one is fastest
+            for this small network, several slow it down when other processes share the cores.
     """
 
-    def __init__(
-        self,
-        model: Any,
-        config: EnvConfig,
-        deterministic: bool = True,
-        capacity: int | None = None,
-    ) -> None:
-        super().__init__()
+    def __init__(self, model: Any, threads: int = 1) -> None:
+        super().__init__(int(model.action_space.n))
+        if not isinstance(threads, int) or threads < 1:
+            raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
         self.model = model
-        self.config = config
-        self.deterministic = deterministic
-        self.capacity = detection_capacity(config) if capacity is None else capacity
-        expected = model.observation_space["mask"].shape[0]
-        if expected != self.capacity:
-            raise ValueError(
-                f"the agent was trained on pictures of {expected} rows; this scenario's have "
-                f"{self.capacity} (train it on this scenario, or one with the same n_robots and "
-                "false positives)"
-            )
-        self._scale = np.array([config.robot.v_max, config.robot.omega_max])
-        self.observer: BeliefObserver | None = None
+        self.threads = threads
 
-    def reset(self, rngs: Any) -> None:
-        super().reset(rngs)
-        self.observer = None  # rebuilt at the first picture, on the team's localizer
-
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        if not isinstance(localizer, BayesLocalizer):
-            raise TypeError("a learned agent reads a bayes localizer's beliefs; use policy 'agent'")
-        first = self.observer is None
-        if self.observer is None:
-            self.observer = BeliefObserver(localizer, self.capacity)
-            self.observer.reset(self.rngs)
-        self.observer.on_picture(step)
-        observation = self.observer.observe(step, first=first)
-        actions = np.clip(self._act(observation), -1.0, 1.0).reshape(self.n, 2)
-        self.observer.last_command[:] = actions  # what the policy asked (before any duty)
-        commands = actions * self._scale
-        self.set(commands[:, 0], commands[:, 1])
-
-    def _act(self, observation: dict[str, np.ndarray]) -> np.ndarray:
-        if self.deterministic:
-            actions, _ = self.model.predict(observation, deterministic=True)
-            return np.asarray(actions, np.float64)
+    def on_scored(self) -> None:
+        if self.cset is None:
+            return
         import torch
 
         policy = self.model.policy
-        with torch.no_grad():
-            tensors, _ = policy.obs_to_tensor(observation)
-            normal = policy.get_distribution(tensors).distribution
-            mean = normal.mean.cpu().numpy().astype(np.float64)
-            std = normal.stddev.cpu().numpy().astype(np.float64)
-        noise = np.stack([rng.standard_normal(mean.shape[-1]) for rng in self.rngs])
-        return mean + std * noise
+        before = torch.get_num_threads()
+        torch.set_num_threads(self.threads)
+        try:
+            with torch.no_grad():
+                tensors, _ = policy.obs_to_tensor(self.observation)
+                logits = policy.logits(tensors).cpu().numpy().astype(np.float64)
+        finally:
+            torch.set_num_threads(before)
+        self.decide(draw(logits, self.rngs))
 
 
 def agent_file(path: str | Path) -> Path:
-    """The ``agent.zip`` that ``path`` names (the file, or its run folder)."""
+    """The ``agent.zip`` that ``path`` names (the file, its run folder, or ``"bundled"``)."""
+    if str(path) == BUNDLED_NAME:
+        path = BUNDLED
     path = Path(path)
     if path.is_dir():
         path = path / "agent.zip"
@@ -107,23 +92,68 @@ def agent_file(path: str | Path) -> Path:
     return path
 
 
+def check_layout(path: Path) -> None:
+    """Refuse, before unpickling anything, an agent saved for another observation layout.
+
+    Raises:
+        ValueError: the file is not an SB3 save, or its observations are not
+            :data:`agents.observation.LAYOUT`'s.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        space = base64.b64decode(data["observation_space"][":serialized:"])
+    except (zipfile.BadZipFile, KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{path} is not a saved agent (an SB3 zip): {error}") from error
+    if b"candidates" not in space or b"context" not in space:
+        raise ValueError(
+            f"{path} was trained on an older observation layout (the picture's rows); this "
+            f"anonloc reads layout {LAYOUT} (scored candidate commands, see agents.observation). "
+            "Retrain it with `anonloc train`, or use the bundled agent."
+        )
+
+
 def load_model(path: str | Path) -> Any:
-    """The SB3 model saved at ``path`` (unpickled by SB3: load only files you trust)."""
+    """The SB3 model saved at ``path`` (unpickled by SB3: load only files you trust).
+
+    Raises:
+        FileNotFoundError: nothing there.
+        ValueError: an agent of another observation layout.
+    """
     from stable_baselines3 import PPO
 
-    return PPO.load(agent_file(path), device="cpu")
+    file = agent_file(path)
+    check_layout(file)
+    model = PPO.load(file, device="cpu")
+    space = model.observation_space
+    shapes = (space["candidates"].shape[1:], space["context"].shape)
+    if shapes != ((CANDIDATE_FEATURES,), (CONTEXT_FEATURES,)):
+        raise ValueError(
+            f"{file} has {shapes[0]} features per candidate and {shapes[1]} of context; layout "
+            f"{LAYOUT} has ({CANDIDATE_FEATURES},) and ({CONTEXT_FEATURES},): retrain it"
+        )
+    return model
 
 
-def load_agent(path: str | Path, config: EnvConfig, capacity: int | None = None) -> Excitation:
-    """The excitation of the agent saved at ``path`` (an ``agent.zip`` or its run folder), in the
-    condition it was trained for (``free``, or ``swarm`` duty with its budget); ``capacity`` is
-    the env's (see :class:`LearnedExcitation`)."""
-    path = agent_file(path)
-    model = load_model(path)
-    record = path.parent / "config.json"
-    train = json.loads(record.read_text())["train"] if record.is_file() else {}
-    own = LearnedExcitation(model, config, capacity=capacity)
-    condition = train.get("condition", "free")
+def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
+    """The excitation of the agent saved at ``path`` (an ``agent.zip``, its run folder, or
+    ``"bundled"``), in ``condition`` (default: the one its run recorded, else ``free``; on
+    ``swarm`` duty the agent is the deviation of :class:`baselines.excitations.SwarmDuty`, with
+    ``budget`` or the run's)."""
+    file = agent_file(path)
+    model = load_model(file)
+    record = file.parent / "config.json"
+    train: dict[str, Any] = {}
+    if record.is_file():
+        try:
+            train = dict(json.loads(record.read_text()).get("train", {}))
+        except (ValueError, AttributeError):
+            train = {}
+    condition = condition or str(train.get("condition", "free"))
+    if condition == "mixed":
+        condition = "free"
+    own = LearnedExcitation(model)
     if condition == "free":
         return own
-    return condition_excitation(condition, own, float(train.get("budget", 0.2)))
+    return condition_excitation(condition, own, float(train.get("budget", budget)))
+

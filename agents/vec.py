@@ -1,7 +1,9 @@
 """K copies of the env as one SB3 ``VecEnv`` in which every robot is a slot.
 
-Slot ``k * N + i`` is robot ``i`` of copy ``k``; one policy acts for every slot (parameter
-sharing: identical robots, one controller). Observations are the belief-annotated dicts of
+The slots of copy ``k`` follow those of copy ``k - 1`` (with one scenario, slot ``k * N + i`` is
+robot ``i`` of copy ``k``); one policy acts for every slot (parameter sharing: identical robots,
+one controller). The copies may hold different scenarios (``configs``: training across
+conditions), with different numbers of robots. Observations are the belief-annotated dicts of
 :mod:`agents.observation`, batched as ``(K * N, ...)`` arrays.
 
 What it guarantees (each is tested):
@@ -19,7 +21,8 @@ What it guarantees (each is tested):
 
 Each slot's ``infos`` also carry ``"episode": {"r", "l"}`` at the end of an episode (the format
 of SB3's ``Monitor``, so training logs show returns), and the per-step ground-truth scores
-``"correct"`` and ``"present"`` for evaluation.
+``"correct"`` and ``"present"`` for evaluation, and ``"teacher"``, the candidate the ``greedy``
+excitation would drive at the new picture (the target of :mod:`agents.imitation`).
 """
 
 from __future__ import annotations
@@ -31,8 +34,9 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from agents.conditions import Scenario
 from agents.crew import Crew
-from agents.observation import policy_observation_space
+from agents.observation import CANDIDATES, policy_action_space, policy_observation_space
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import EnergyCost
@@ -51,6 +55,10 @@ class AnonLocVecEnv(VecEnv):
         reward: the identity term: ``log_belief`` or ``information`` (see :class:`Crew`).
         make_env: builds one copy from the config (default: ``AnonLocEnv`` with the
             ``EnergyCost`` reward; the information term is computed by the crew).
+        candidates: candidates per robot and picture (the action is one of them).
+        scenarios: one scenario (config, condition and budget) per copy instead of ``config``
+            for all (training across conditions, :mod:`agents.conditions`); the number of
+            robots may differ between copies. ``n_envs`` is then ignored.
     """
 
     def __init__(
@@ -62,23 +70,27 @@ class AnonLocVecEnv(VecEnv):
         information_weight: float = 1.0,
         reward: str = "log_belief",
         make_env: Callable[[EnvConfig], AnonLocEnv] | None = None,
+        candidates: int = CANDIDATES,
+        scenarios: Sequence[Scenario] | None = None,
     ) -> None:
         if not isinstance(n_envs, (int, np.integer)) or isinstance(n_envs, bool) or n_envs < 1:
             raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
         build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
         self.config = config
+        drawn = list(scenarios or [Scenario(config, condition, budget)] * int(n_envs))
         self.crews = [
-            Crew(build(config), condition, budget, information_weight, reward)
-            for _ in range(n_envs)
+            Crew(build(s.config), s.condition, s.budget, information_weight, reward, candidates)
+            for s in drawn
         ]
+        sizes = [crew.n for crew in self.crews]
+        self.starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         self.n_robots = config.n_robots
-        self.n_envs = int(n_envs)
-        capacity = self.crews[0].capacity
+        self.n_envs = len(self.crews)
         self.render_mode = None
         super().__init__(
-            self.n_envs * self.n_robots,
-            policy_observation_space(capacity),
-            spaces.Box(-1.0, 1.0, (2,), np.float32),
+            int(self.starts[-1]),
+            policy_observation_space(candidates),
+            policy_action_space(candidates),
         )
         self._copy_seeds: list[int | None] = [None] * self.n_envs
         self._actions: np.ndarray | None = None
@@ -94,7 +106,7 @@ class AnonLocVecEnv(VecEnv):
         ``SeedSequence(seed)`` (fresh entropy if None). Returns one entry per slot."""
         children = np.random.SeedSequence(seed).spawn(self.n_envs)
         self._copy_seeds = [int(c.generate_state(1, np.uint64)[0]) for c in children]
-        return [s for s in self._copy_seeds for _ in range(self.n_robots)]
+        return [s for s, crew in zip(self._copy_seeds, self.crews, strict=True) for _ in range(crew.n)]
 
     def reset(self) -> dict[str, np.ndarray]:
         parts = [crew.reset(seed) for crew, seed in zip(self.crews, self._copy_seeds, strict=True)]
@@ -106,29 +118,34 @@ class AnonLocVecEnv(VecEnv):
 
     # -- stepping ---------------------------------------------------------------------------------
     def step_async(self, actions: np.ndarray) -> None:
-        actions = np.asarray(actions, np.float64).reshape(self.num_envs, 2)
-        if not np.isfinite(actions).all():
-            bad = int(np.flatnonzero(~np.isfinite(actions).all(axis=1))[0])
-            raise ValueError(f"actions must be finite; slot {bad} got {actions[bad].tolist()}")
+        actions = np.asarray(actions).reshape(-1)
+        space = self.action_space
+        assert isinstance(space, spaces.Discrete)
+        if actions.shape != (self.num_envs,) or not np.issubdtype(actions.dtype, np.integer):
+            raise ValueError(f"actions must be {self.num_envs} integers (one per slot)")
+        outside = (actions < 0) | (actions >= space.n)
+        if outside.any():
+            bad = int(np.flatnonzero(outside)[0])
+            raise ValueError(f"actions must be in [0, {space.n}); slot {bad} got {actions[bad]}")
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
         assert self._actions is not None, "step_async() first"
-        n = self.n_robots
         parts: list[dict[str, np.ndarray]] = []
         rewards = np.empty(self.num_envs, np.float32)
         dones = np.zeros(self.num_envs, bool)
         infos: list[dict[str, Any]] = []
         for k, crew in enumerate(self.crews):
-            slots = slice(k * n, (k + 1) * n)
+            first = int(self.starts[k])
+            slots = slice(first, int(self.starts[k + 1]))
             result = crew.step(self._actions[slots])
             self.control_steps += result.steps
             rewards[slots] = result.reward
             self._returns[slots] += result.reward
             self._lengths[slots] += 1
             copy_infos: list[dict[str, Any]] = [
-                {"correct": bool(c), "present": bool(p)}
-                for c, p in zip(result.correct, result.present, strict=True)
+                {"correct": bool(c), "present": bool(p), "teacher": int(t)}
+                for c, p, t in zip(result.correct, result.present, result.teacher, strict=True)
             ]
             observation = result.observation
             if result.truncated:
@@ -138,8 +155,8 @@ class AnonLocVecEnv(VecEnv):
                     info["TimeLimit.truncated"] = True
                     info["terminal_observation"] = {key: v[i] for key, v in terminal.items()}
                     info["episode"] = {
-                        "r": float(self._returns[k * n + i]),
-                        "l": int(self._lengths[k * n + i]),
+                        "r": float(self._returns[first + i]),
+                        "l": int(self._lengths[first + i]),
                     }
                 self._returns[slots] = 0.0
                 self._lengths[slots] = 0
@@ -161,7 +178,7 @@ class AnonLocVecEnv(VecEnv):
             slots = [indices]
         else:
             slots = list(indices)
-        return [slot // self.n_robots for slot in slots]
+        return [int(np.searchsorted(self.starts, slot, side="right")) - 1 for slot in slots]
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         return [getattr(self.crews[k].env, attr_name) for k in self._copies(indices)]

@@ -55,8 +55,8 @@ POLICIES: dict[str, tuple[type[Localizer], str]] = {
 }
 
 
-#: A saved learned agent (``agents``, the ``rl`` extra): the ``bayes`` localizer with the agent's
-#: motion; built with ``path=`` the saved agent.
+#: A learned agent (``agents``, the ``rl`` extra): the ``bayes`` localizer with the agent's
+#: motion; the bundled agent, or ``path=`` a saved one.
 AGENT = "agent"
 
 
@@ -158,8 +158,10 @@ def make_team(
             :data:`baselines.excitations.EXCITATIONS`, an ``Excitation``, or any policy object.
             Default: the method's own (``random`` for ``bayes``).
         **kwargs: passed to the localizer (``bayes`` and ``agent``: ``threshold``,
-            ``scale_known``); ``agent`` also takes ``path``, the saved agent (its file is
-            unpickled by SB3: load only files you trust).
+            ``scale_known``); ``agent`` also takes ``path``, a saved agent (default: the agent
+            bundled with the package; a file is unpickled by SB3: load only files you trust),
+            and ``condition``, ``"free"`` or ``"swarm"`` (default: the one the agent's run
+            recorded, else ``free``).
 
     Raises:
         ValueError: an unknown name, mode or excitation, or no scenario given (neither ``env``
@@ -170,8 +172,7 @@ def make_team(
     cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
     if name == AGENT:
-        capacity = getattr(getattr(env, "unwrapped", env), "capacity", None)
-        return _agent_team(cfg, count, mode, excitation, capacity=capacity, **kwargs)
+        return _agent_team(cfg, count, mode, excitation, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))
@@ -183,23 +184,21 @@ def _agent_team(
     mode: str,
     excitation: Any,
     path: str | None = None,
-    capacity: int | None = None,
+    condition: str | None = None,
     **kwargs: Any,
 ) -> Team:
-    """A team driven by the saved agent at ``path`` (loaded lazily: ``agents`` needs torch);
-    ``capacity``: the env's rows per picture (None: the config's)."""
-    if path is None:
-        raise ValueError("policy 'agent' needs path=<a saved agent.zip or its run folder>")
+    """A team driven by the saved agent at ``path`` (None: the bundled agent), loaded lazily
+    (``agents`` needs torch); ``condition``: ``free`` or ``swarm`` (None: the run's own)."""
     if excitation is not None:
         raise ValueError("policy 'agent' moves as it learned: it takes no excitation")
     try:
-        from agents.policy import load_agent
+        from agents.policy import BUNDLED_NAME, load_agent
     except ImportError as error:
         raise ImportError(
             f"policy 'agent' needs the rl extra: pip install 'anonloc[rl]' ({error})"
         ) from error
     localizer = BayesLocalizer(config, n, mode, **kwargs)
-    return Team(config, localizer, load_agent(path, config, capacity))
+    return Team(config, localizer, load_agent(path or BUNDLED_NAME, condition))
 
 
 def make(

@@ -161,6 +161,28 @@ class Geometry:
     duration: float
 
 
+@dataclass(frozen=True)
+class CandidateSet:
+    """Each robot's candidate commands at one picture and what each is predicted to tell.
+
+    Attributes:
+        commands: ``(R, C, 2)`` the candidates ``(v, w)`` (m/s, rad/s); on swarm duty, the
+            deviations (before the budget scales them).
+        entropy: ``(R, C)`` expected entropy of the robot's belief after the next picture if it
+            drives that candidate (nats; :func:`expected_entropy`).
+        spent: ``(R, C)`` the candidate's energy over the interval (m of wheel travel, turns
+            weighed by ``reward.turn_cost``).
+        now: ``(R,)`` entropy of the robot's belief over its hypotheses now (nats).
+        reach: ``(R, C)`` length of the candidate's displacement in image units.
+    """
+
+    commands: np.ndarray
+    entropy: np.ndarray
+    spent: np.ndarray
+    now: np.ndarray
+    reach: np.ndarray
+
+
 def expected_entropy(
     hyp: Hypotheses, own: np.ndarray, others: np.ndarray, geo: Geometry, ring_samples: int = 8
 ) -> np.ndarray:
@@ -347,14 +369,18 @@ class GreedyIdentification(BackOff):
             out[i, :, 1] = rng.uniform(-st.turn, st.turn, st.candidates)
         return out
 
-    def choose(self) -> None:
-        """Pick every robot's command for the interval now starting (the module's rule)."""
+    def score(self) -> CandidateSet | None:
+        """Draw every robot's candidate commands for the interval now starting (each robot from
+        its own generator) and predict what each would tell (the module's model); ``None`` until
+        the first picture with a row has been taken in (and after the candidates were scored for
+        this picture)."""
         deviation = self.following
         cand = self._candidates(deviation)
         if self._pending is None:
             self.v, self.w = cand[:, 0, 0].copy(), cand[:, 0, 1].copy()
-            return
+            return None
         hyp, geo, turn_cost = self._pending
+        self._pending = None
         st = self.settings
         bv, bw = self.base[0][:, None], self.base[1][:, None]
         total_v = bv + self.budget * cand[..., 0]
@@ -366,11 +392,22 @@ class GreedyIdentification(BackOff):
         )
         entropy = expected_entropy(hyp, own, others, geo, st.ring_samples)
         spent = geo.duration * (np.abs(total_v) + turn_cost * np.abs(total_w))
-        pick = (entropy + st.energy_weight * spent).argmin(axis=1)
+        weight = hyp.weight
+        now = -(weight * np.log(np.maximum(weight, 1e-300))).sum(axis=1)
+        return CandidateSet(cand, entropy, spent, now, geo.scale * np.hypot(own[..., 0], own[..., 1]))
+
+    def drive(self, cset: CandidateSet, pick: np.ndarray) -> None:
+        """Hold candidate ``pick`` ``(R,)`` of each robot until the next picture."""
         rows = np.arange(self.n)
-        self.v, self.w = cand[rows, pick, 0], cand[rows, pick, 1]
-        self.last_entropy = entropy[rows, pick]
-        self._pending = None
+        self.v, self.w = cset.commands[rows, pick, 0], cset.commands[rows, pick, 1]
+        self.last_entropy = cset.entropy[rows, pick]
+
+    def choose(self) -> None:
+        """Pick every robot's command for the interval now starting (the module's rule: the
+        smallest expected entropy plus ``energy_weight`` times the wheel travel)."""
+        cset = self.score()
+        if cset is not None:
+            self.drive(cset, (cset.entropy + self.settings.energy_weight * cset.spent).argmin(1))
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         self._start_backoff(step)

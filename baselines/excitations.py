@@ -360,6 +360,9 @@ class SwarmDuty(Excitation):
         super().reset(rngs)
         self.shared.reset(rngs)
         self.deviation.reset(rngs)
+        # The deviation knows it is on duty from the start (its first picture comes before the
+        # first step's follow()).
+        self.deviation.follow(self.shared.v, self.shared.w, self.budget)
 
     def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
         self.deviation.on_observations(observations)
