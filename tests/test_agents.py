@@ -1,8 +1,9 @@
-"""agents: the vectorized adapter, the features extractors, training, saved agents as policies."""
+"""agents: the candidate observation, the vectorized adapter, the scorer, saved agents as policies."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,10 +15,19 @@ import torch
 
 import anonloc_env
 import baselines
-from agents.features import AttentionExtractor, DeepSetsExtractor, FlatExtractor
-from agents.observation import OWN_FEATURES, ROW_FEATURES, policy_observation_space
-from agents.train import TrainConfig, build_model, make_vec_env, resume, train
+from agents.candidates import CandidateChooser
+from agents.features import CandidatePolicy, CandidateScorer
+from agents.observation import (
+    CANDIDATE_FEATURES,
+    CANDIDATES,
+    CONTEXT_FEATURES,
+    policy_action_space,
+    policy_observation_space,
+)
+from agents.policy import LearnedExcitation, draw, load_model
 from agents.vec import AnonLocVecEnv
+from baselines.active import GreedyIdentification
+from baselines.excitations import SwarmDuty
 from baselines.runner import run_episode
 
 SMALL = {
@@ -29,8 +39,8 @@ SMALL = {
 }
 
 
-def small_config() -> anonloc_env.EnvConfig:
-    return anonloc_env.make_config(**SMALL)
+def small_config(**changes: object) -> anonloc_env.EnvConfig:
+    return anonloc_env.make_config(**{**SMALL, **changes})
 
 
 def _rollout(venv: AnonLocVecEnv, steps: int, seed: int) -> list[tuple]:
@@ -39,7 +49,7 @@ def _rollout(venv: AnonLocVecEnv, steps: int, seed: int) -> list[tuple]:
     obs = venv.reset()
     out.append(({k: v.copy() for k, v in obs.items()},))
     for _ in range(steps):
-        actions = rng.uniform(-1, 1, (venv.num_envs, 2)).astype(np.float32)
+        actions = rng.integers(0, CANDIDATES, venv.num_envs)
         obs, rewards, dones, _ = venv.step(actions)
         out.append(({k: v.copy() for k, v in obs.items()}, rewards.copy(), dones.copy()))
     return out
@@ -56,206 +66,265 @@ def _same(a: list[tuple], b: list[tuple]) -> bool:
     return True
 
 
+def _seeded(venv: AnonLocVecEnv, seed: int) -> AnonLocVecEnv:
+    venv.seed(seed)
+    return venv
+
+
+def untrained_agent(tmp_path: Path, seed: int = 0) -> Path:
+    """An untrained layout-2 agent, saved as ``anonloc train`` saves one."""
+    from stable_baselines3 import PPO
+
+    model = PPO(CandidatePolicy, AnonLocVecEnv(small_config()), n_steps=8, batch_size=8, seed=seed)
+    path = tmp_path / "agent.zip"
+    model.save(path)
+    return path
+
+
 def test_every_robot_is_a_slot_with_the_documented_observation() -> None:
     venv = AnonLocVecEnv(small_config(), n_envs=2)
     assert venv.num_envs == 6
     venv.seed(0)
     obs = venv.reset()
-    capacity = venv.crews[0].capacity
-    assert obs["rows"].shape == (6, capacity, ROW_FEATURES)
-    assert obs["mask"].shape == (6, capacity)
-    assert obs["own"].shape == (6, OWN_FEATURES)
+    assert obs["candidates"].shape == (6, CANDIDATES, CANDIDATE_FEATURES)
+    assert obs["context"].shape == (6, CONTEXT_FEATURES)
     assert all(o.dtype == np.float32 for o in obs.values())
-    assert venv.observation_space == policy_observation_space(capacity)
+    assert venv.observation_space == policy_observation_space()
+    assert venv.action_space == policy_action_space()
     assert venv.observation_space.contains({k: v[0] for k, v in obs.items()})
-    # At the first picture every row is equally likely: belief 1/3 on each of the 3 rows.
-    np.testing.assert_allclose(obs["rows"][:, :3, 4], 1.0 / 3.0, rtol=1e-6)
-    np.testing.assert_array_equal(obs["mask"][:, :3], 1.0)
+    # At the first picture every robot is equally likely to be each of the 3 rows.
+    context = obs["context"]
+    np.testing.assert_allclose(context[:, 0], np.log(3.0), rtol=1e-6)  # entropy (nats)
+    np.testing.assert_allclose(context[:, 1], 1.0 / 3.0, rtol=1e-6)  # largest belief
+    np.testing.assert_array_equal(context[:, -1], 1.0)  # scored
+    cand = obs["candidates"]
+    assert (np.abs(cand[..., :2]) <= 1.0).all()  # commands within the robot's limits
+    # The best candidate's gap to the best is 0; information = entropy now - expected entropy.
+    np.testing.assert_array_equal(cand[..., 4].min(axis=1), 0.0)
+    np.testing.assert_allclose(cand[..., 3], context[:, :1] - cand[..., 2], atol=1e-6)
+
+
+class _Reshuffled:
+    """The built-in camera, with the rows of every picture shuffled once more by a generator of
+    its own (the robots' identities in the rows change; nothing a robot can see does)."""
+
+    def __init__(self, config: anonloc_env.EnvConfig, seed: int) -> None:
+        from anonloc_env.camera import Camera
+
+        self.camera = Camera(config)
+        self.capacity = self.camera.capacity
+        self.rng = np.random.default_rng(seed)
+
+    def take(self, poses: np.ndarray, rng: np.random.Generator, time: float, index: int) -> Any:
+        from anonloc_env.camera import Picture
+
+        picture = self.camera.take(poses, rng, time, index)
+        order = self.rng.permutation(picture.n_rows)
+        where = np.argsort(order)
+        true = np.where(picture.true_index >= 0, where[picture.true_index], -1)
+        return Picture(picture.detections[order], true, time, index, picture.has_orientation)
+
+
+def test_shuffled_rows_give_the_same_observation_to_1e_6() -> None:
+    """The observation is a function of the picture as a set: the same episode with the rows
+    of every picture in another order gives the same candidates' features (to 1e-6, float
+    summation order) and so the same choices."""
+    config = small_config(n_robots=6, arena_size=(2.5, 2.5))
+    seen = []
+    for seed in (0, 1):
+        env = anonloc_env.parallel_env(
+            **{**SMALL, "n_robots": 6, "arena_size": (2.5, 2.5)}, detector=_Reshuffled(config, seed)
+        )
+        chooser = _Teacher()
+        team = baselines.make_team("bayes", env, excitation=chooser)
+        observations, _ = env.reset(seed=7)
+        team.reset(np.random.SeedSequence(2).spawn(6))
+        frames = []
+        for _ in range(20):
+            actions = team.act([observations[a] for a in env.possible_agents])
+            if chooser.cset is not None and not any(f is chooser.observation for f in frames):
+                frames.append(chooser.observation)
+            observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
+        seen.append(frames)
+    assert len(seen[0]) == len(seen[1]) >= 4
+    for a, b in zip(*seen, strict=True):
+        for key in a:
+            np.testing.assert_allclose(a[key], b[key], atol=1e-6, rtol=0.0)
 
 
 def test_time_limit_ends_are_truncations_with_the_terminal_observation() -> None:
     venv = AnonLocVecEnv(small_config(), n_envs=2)
     venv.seed(1)
     venv.reset()
-    actions = np.zeros((venv.num_envs, 2), np.float32)
+    actions = np.zeros(venv.num_envs, np.int64)
     # One decision per picture (every 5 steps): 32 steps are 6 whole intervals and 2 steps.
     for step in range(1, 8):
-        obs, _, dones, infos = venv.step(actions)
+        _, _, dones, infos = venv.step(actions)
         if step < 7:
             assert not dones.any()
             assert not any("terminal_observation" in info for info in infos)
     assert dones.all()
     for info in infos:
         assert info["TimeLimit.truncated"] is True
-        terminal = info["terminal_observation"]
-        assert set(terminal) == {"rows", "mask", "own"}
-        assert terminal["own"][3] > 0.0  # cut between two pictures
+        assert set(info["terminal_observation"]) == {"candidates", "context"}
         assert info["episode"]["l"] == 7
-    # The returned observation is the new episode's first: its picture was just taken.
-    np.testing.assert_array_equal(obs["own"][:, 3], 0.0)
-    np.testing.assert_array_equal(obs["own"][:, 8:10], 0.0)  # no command sent yet
+        assert 0 <= info["teacher"] < CANDIDATES
+
+
+def test_actions_are_checked_at_step() -> None:
+    venv = _seeded(AnonLocVecEnv(small_config()), 0)
+    venv.reset()
+    with pytest.raises(ValueError, match=r"in \[0, 8\); slot 1 got 8"):
+        venv.step(np.array([0, 8, 0]))
+    with pytest.raises(ValueError, match="3 integers"):
+        venv.step(np.array([0.0, 1.0, 2.0]))
+    with pytest.raises(ValueError, match="3 integers"):
+        venv.step(np.array([0, 1]))
 
 
 def test_seeding_goes_through_reset_and_copies_share_no_random_state() -> None:
-    a = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 70, seed=3)
-    b = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 70, seed=3)
-    c = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 8), 70, seed=3)
+    a = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 30, seed=3)
+    b = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 7), 30, seed=3)
+    c = _rollout(_seeded(AnonLocVecEnv(small_config(), n_envs=2), 8), 30, seed=3)
     assert _same(a, b)  # same seed: bit-identical, across automatic resets
     assert not _same(a, c)
     venv = _seeded(AnonLocVecEnv(small_config(), n_envs=2), 7)
-    venv.reset()
+    obs = venv.reset()
     first, second = venv.crews
     assert first.env.rng is not second.env.rng
-    assert not np.array_equal(first.env.state(), second.env.state())
-    assert not np.array_equal(first.observer.dice, second.observer.dice)
+    assert not np.array_equal(obs["candidates"][:3], obs["candidates"][3:])
 
 
-def _seeded(venv: AnonLocVecEnv, seed: int) -> AnonLocVecEnv:
-    venv.seed(seed)
-    return venv
+def test_copies_may_hold_different_scenarios() -> None:
+    from agents.conditions import training_scenarios
 
-
-def test_swarm_duty_adds_the_policy_as_a_bounded_deviation_of_the_shared_stream() -> None:
-    from agents.crew import HeldCommands
-    from baselines.excitations import Still, SwarmDuty
-    from baselines.observations import Step
-
-    n, v_max, omega_max = 4, 0.5, 1.0
-    step = Step(np.zeros((0, 3)), False, np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)), 0.0)
-    own = HeldCommands()
-    duty = SwarmDuty(own, budget=0.2, common_seed=9)
-    alone = SwarmDuty(Still(), budget=0.2, common_seed=9)
-    for excitation in (duty, alone):
-        excitation.reset([np.random.default_rng(i) for i in range(n)])
-    for t in range(50):
-        own.set(np.full(n, v_max), np.full(n, -omega_max) * (1 if t % 2 else -1))
-        v, w = duty.commands(step, 0.05)
-        v0, w0 = alone.commands(step, 0.05)
-        assert np.ptp(v0) == 0.0  # jitter 0: one shared command
-        np.testing.assert_allclose(v - v0, 0.2 * v_max)
-        np.testing.assert_allclose(np.abs(w - w0), 0.2 * omega_max)
-
-
-@pytest.mark.parametrize("extractor", [DeepSetsExtractor, AttentionExtractor])
-def test_set_extractors_are_permutation_invariant_and_ignore_masked_rows(extractor: type) -> None:
-    torch.manual_seed(0)
-    space = policy_observation_space(7)
-    net = extractor(space)
-    gen = torch.Generator().manual_seed(1)
-    rows = torch.randn(5, 7, ROW_FEATURES, generator=gen)
-    mask = torch.ones(5, 7)
-    mask[:, 5:] = 0.0
-    mask[4] = 0.0  # a picture with no row at all
-    own = torch.randn(5, OWN_FEATURES, generator=gen)
-    out = net({"rows": rows, "mask": mask, "own": own})
-    assert torch.isfinite(out).all()
-    perm = torch.randperm(7, generator=gen)
-    shuffled = net({"rows": rows[:, perm], "mask": mask[:, perm], "own": own})
-    torch.testing.assert_close(shuffled, out, atol=1e-6, rtol=0.0)
-    garbage = rows.clone()
-    garbage[:, 5:] = 1e3 * torch.randn(5, 2, ROW_FEATURES, generator=gen)
-    garbage[4] = -7.0
-    masked = net({"rows": garbage, "mask": mask, "own": own})
-    torch.testing.assert_close(masked, out, atol=1e-6, rtol=0.0)
-
-
-def test_the_flat_extractor_depends_on_row_order() -> None:
-    torch.manual_seed(0)
-    net = FlatExtractor(policy_observation_space(4))
-    rows = torch.randn(1, 4, ROW_FEATURES)
-    inputs = {"rows": rows, "mask": torch.ones(1, 4), "own": torch.zeros(1, OWN_FEATURES)}
-    swapped = dict(inputs, rows=rows[:, [1, 0, 2, 3]])
-    assert not torch.allclose(net(inputs), net(swapped))
-
-
-def _config(tmp_path: Path, **changes: object) -> TrainConfig:
-    fields = {
-        "overrides": SMALL,
-        "timesteps": 192,
-        "n_envs": 2,
-        "n_steps": 16,
-        "batch_size": 48,
-        "n_epochs": 2,
-        "checkpoint_every": 96,
-        "out": str(tmp_path),
-        "name": "run",
-    }
-    fields.update(changes)
-    return TrainConfig(**fields)  # type: ignore[arg-type]  # test fixture
-
-
-def test_two_trainings_with_one_seed_give_the_same_weights(tmp_path: Path) -> None:
-    weights = []
-    for name in ("a", "b"):
-        config = _config(tmp_path, name=name, extractor="attention", seed=3)
-        model = build_model(config, make_vec_env(config))
-        model.learn(96)
-        weights.append([p.detach().clone() for p in model.policy.parameters()])
-    for x, y in zip(*weights, strict=True):
-        assert torch.equal(x, y)
-
-
-def test_a_training_run_saves_an_agent_that_reloads_and_acts_the_same(tmp_path: Path) -> None:
-    from stable_baselines3 import PPO
-
-    result = train(_config(tmp_path))
-    assert result.timesteps >= 192
-    run = result.directory
-    assert (run / "config.json").is_file()
-    assert sorted(p.name for p in (run / "checkpoints").iterdir())
-    progress = (run / "tb" / "progress.csv").read_text().splitlines()
-    header = progress[0].split(",")
-    losses = [line.split(",")[header.index("train/loss")] for line in progress[1:]]
-    assert losses
-    assert all(np.isfinite(float(x)) for x in losses if x)
-    model = PPO.load(result.agent, device="cpu")
-    again = PPO.load(result.agent, device="cpu")
-    venv = _seeded(AnonLocVecEnv(small_config(), n_envs=1), 5)
+    scenarios = training_scenarios(3, seed=2)
+    venv = _seeded(AnonLocVecEnv(scenarios[0].config, scenarios=scenarios), 0)
+    assert venv.num_envs == sum(s.config.n_robots for s in scenarios)
     obs = venv.reset()
-    for _ in range(5):
-        first, _ = model.predict(obs, deterministic=True)
-        second, _ = again.predict(obs, deterministic=True)
-        np.testing.assert_array_equal(first, second)
-        obs, *_ = venv.step(first)
-    # Resuming continues from the newest checkpoint up to a larger total.
-    assert resume(run, timesteps=288).timesteps >= 288
+    assert obs["context"].shape == (venv.num_envs, CONTEXT_FEATURES)
+    _, _, _, infos = venv.step(np.zeros(venv.num_envs, np.int64))
+    assert len(infos) == venv.num_envs
+    assert venv.get_attr("config", [venv.num_envs - 1])[0] == scenarios[-1].config
 
 
-def test_a_saved_agent_is_a_policy(tmp_path: Path) -> None:
-    result = train(_config(tmp_path))
+class _Teacher(CandidateChooser):
+    """Drives greedy's choice among its candidates (what imitation learns)."""
+
+    def on_scored(self) -> None:
+        if self.cset is not None:
+            self.decide(self.teacher())
+
+
+def test_the_teacher_is_greedys_choice() -> None:
+    """The imitation label is the candidate greedy would drive: same candidates, same rule."""
+    config = small_config(n_robots=5, arena_size=(2.5, 2.5))
+    env = anonloc_env.AnonLocEnv(config)
+    chooser, greedy = _Teacher(), GreedyIdentification()
+    teams = [baselines.make_team("bayes", env, excitation=e) for e in (chooser, greedy)]
+    runs = []
+    for team in teams:
+        runs.append([])
+        observations, _ = env.reset(seed=3)
+        team.reset(np.random.SeedSequence(5).spawn(5))
+        for _ in range(12):
+            actions = team.act([observations[a] for a in env.possible_agents])
+            runs[-1].append(actions.copy())
+            observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
+    np.testing.assert_array_equal(np.array(runs[0]), np.array(runs[1]))
+
+
+def test_swarm_duty_tells_the_chooser_it_deviates_from_the_first_picture() -> None:
+    config = small_config()
+    env = anonloc_env.AnonLocEnv(config)
+    chooser = CandidateChooser()
+    team = baselines.make_team("bayes", env, excitation=SwarmDuty(chooser, budget=0.3))
+    observations, _ = env.reset(seed=0)
+    team.reset(np.random.SeedSequence(1).spawn(3))
+    team.act([observations[a] for a in env.possible_agents])
+    context = chooser.observation["context"]
+    np.testing.assert_array_equal(context[:, 6], 1.0)  # on duty
+    np.testing.assert_allclose(context[:, 7], 0.3)  # its budget
+    assert (chooser.observation["candidates"][..., 0] < 0).any()  # deviations go backwards too
+
+
+def test_the_scorer_is_equivariant_to_the_candidates_order() -> None:
+    torch.manual_seed(0)
+    net = CandidateScorer()
+    gen = torch.Generator().manual_seed(1)
+    cand = torch.randn(5, CANDIDATES, CANDIDATE_FEATURES, generator=gen)
+    ctx = torch.randn(5, CONTEXT_FEATURES, generator=gen)
+    logits, value = net(cand, ctx)
+    perm = torch.randperm(CANDIDATES, generator=gen)
+    shuffled, again = net(cand[:, perm], ctx)
+    torch.testing.assert_close(shuffled, logits[:, perm], atol=1e-6, rtol=0.0)
+    torch.testing.assert_close(again, value, atol=1e-6, rtol=0.0)
+    # Any number of candidates: the weights do not depend on it.
+    assert net(cand[:, :3], ctx)[0].shape == (5, 3)
+
+
+def test_draw_follows_the_softmax_with_each_robots_own_generator() -> None:
+    logits = np.log(np.array([[0.7, 0.2, 0.1]] * 4000))
+    picks = draw(logits, [np.random.default_rng(i) for i in range(4000)])
+    share = np.bincount(picks, minlength=3) / 4000
+    # 4000 draws: the standard error of a share near 0.7 is 0.0072; 4 of them is the tolerance.
+    np.testing.assert_allclose(share, [0.7, 0.2, 0.1], atol=0.03)
+    again = draw(logits, [np.random.default_rng(i) for i in range(4000)])
+    np.testing.assert_array_equal(picks, again)
+    assert draw(np.array([[0.0, -np.inf, 5.0]]), [np.random.default_rng(0)])[0] == 2
+
+
+def test_a_saved_agent_is_a_policy_that_replays_from_its_seed(tmp_path: Path) -> None:
+    path = untrained_agent(tmp_path)
     env = anonloc_env.parallel_env(**SMALL)
-    team = baselines.make_team("agent", env, path=str(result.directory))
-    outcome = run_episode(env, team, seed=11)
-    assert outcome.records
-    again = run_episode(env, baselines.make_team("agent", env, path=str(result.agent)), seed=11)
-    assert [r.estimate for r in outcome.records] == [r.estimate for r in again.records]
-    policy = baselines.make("agent", env, path=str(result.agent))
+    team = baselines.make_team("agent", env, path=str(path))
+    assert isinstance(team.excitation, LearnedExcitation)
+    first = run_episode(env, team, seed=11)
+    again = run_episode(env, baselines.make_team("agent", env, path=str(tmp_path)), seed=11)
+    assert first.records == again.records
+    other = run_episode(env, baselines.make_team("agent", env, path=str(path)), 11, policy_seed=3)
+    assert [r.energy for r in other.records] != [r.energy for r in first.records]
+    policy = baselines.make("agent", env, path=str(path))
     observations, _ = env.reset(seed=0)
     action, _ = policy.predict(observations["robot_0"])
     assert action.shape == (2,)
-    with pytest.raises(ValueError, match="needs path="):
-        baselines.make_team("agent", env)
-    other = anonloc_env.parallel_env(**{**SMALL, "n_robots": 5, "arena_size": (3.0, 3.0)})
-    with pytest.raises(ValueError, match="trained on pictures of 3 rows"):
-        baselines.make_team("agent", other, path=str(result.agent))
+    assert env.action_space("robot_0").contains(action.astype(np.float32))
 
 
-def test_a_sampling_agent_draws_from_each_robots_own_generator(tmp_path: Path) -> None:
-    """deterministic=False samples with the team's per-robot generators: reproducible by seed."""
-    from agents.policy import LearnedExcitation, load_model
+def test_one_agent_runs_at_any_n_camera_and_clutter(tmp_path: Path) -> None:
+    path = untrained_agent(tmp_path)
+    for changes in (
+        {"n_robots": 2},
+        {"n_robots": 12, "arena_size": (4.0, 4.0), "camera": {"orientation": True}},
+        {"n_robots": 8, "camera": {"p_miss": 0.2, "false_positives": 3.0}},
+    ):
+        env = anonloc_env.parallel_env(**{**SMALL, **changes})
+        outcome = run_episode(env, baselines.make_team("agent", env, path=str(path)), seed=1)
+        assert outcome.records
 
-    result = train(_config(tmp_path))
-    env = anonloc_env.parallel_env(**SMALL)
-    model = load_model(result.agent)
 
-    def play(seed: int) -> list[int]:
-        from baselines.localizers import BayesLocalizer
-        from baselines.policies import Team
+def test_an_agent_of_the_older_layout_is_refused_by_name(tmp_path: Path) -> None:
+    """An agent saved before layout 2 (its observations were the picture's rows) is refused
+    before anything in it is unpickled."""
+    import json
+    import zipfile
 
-        excitation = LearnedExcitation(model, env.config, deterministic=False)
-        team = Team(env.config, BayesLocalizer(env.config, 3), excitation)
-        outcome = run_episode(env, team, seed=0, policy_seed=seed)
-        return [r.estimate for r in outcome.records] + [round(float(env.state().sum()), 9)]
+    from gymnasium import spaces
+    from stable_baselines3.common.save_util import data_to_json
 
-    assert play(1) == play(1)
-    assert play(1) != play(2)
+    old = spaces.Dict(
+        {
+            "rows": spaces.Box(-np.inf, np.inf, (4, 6), np.float32),
+            "mask": spaces.Box(0.0, 1.0, (4,), np.float32),
+            "own": spaces.Box(-np.inf, np.inf, (12,), np.float32),
+        }
+    )
+    path = tmp_path / "old.zip"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("data", data_to_json({"observation_space": old}))
+    with pytest.raises(ValueError, match="older observation layout"):
+        load_model(path)
+    (tmp_path / "junk.zip").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="not a saved agent"):
+        load_model(tmp_path / "junk.zip")
+    assert json.loads(data_to_json({"a": 1}))["a"] == 1
