@@ -43,7 +43,9 @@ class CandidateChooser(GreedyIdentification):
             ``candidates`` is replaced by ``candidates``).
     """
 
-    def __init__(self, candidates: int = CANDIDATES, settings: GreedySettings | None = None) -> None:
+    def __init__(
+        self, candidates: int = CANDIDATES, settings: GreedySettings | None = None
+    ) -> None:
         base = settings or GreedySettings()
         super().__init__(
             GreedySettings(**{**base.__dict__, "candidates": candidates})  # validated again

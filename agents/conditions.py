@@ -61,7 +61,7 @@ class ConditionRanges:
         for name in ("density", "pixel_noise", "p_miss", "false_positives", "budget"):
             low, high = getattr(self, name)
             if not 0.0 <= low <= high:
-                raise ValueError(f"{name} must be (low, high) with 0 <= low <= high, got {low, high}")
+                raise ValueError(f"{name} must be (low, high), 0 <= low <= high: {low, high}")
         if self.density[0] <= 0.0 or self.p_miss[1] >= 1.0 or self.budget[1] > 1.0:
             raise ValueError("density must be > 0, p_miss < 1 and budget <= 1")
         if not self.energy_weight >= 0.0:

@@ -59,9 +59,7 @@ def policy_observation_space(candidates: int = CANDIDATES) -> spaces.Dict:
     """The observation space of one robot (one slot of the vectorized env)."""
     return spaces.Dict(
         {
-            "candidates": spaces.Box(
-                -np.inf, np.inf, (candidates, CANDIDATE_FEATURES), np.float32
-            ),
+            "candidates": spaces.Box(-np.inf, np.inf, (candidates, CANDIDATE_FEATURES), np.float32),
             "context": spaces.Box(-np.inf, np.inf, (CONTEXT_FEATURES,), np.float32),
         }
     )

@@ -156,4 +156,3 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if condition == "free":
         return own
     return condition_excitation(condition, own, float(train.get("budget", budget)))
-

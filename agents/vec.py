@@ -106,7 +106,8 @@ class AnonLocVecEnv(VecEnv):
         ``SeedSequence(seed)`` (fresh entropy if None). Returns one entry per slot."""
         children = np.random.SeedSequence(seed).spawn(self.n_envs)
         self._copy_seeds = [int(c.generate_state(1, np.uint64)[0]) for c in children]
-        return [s for s, crew in zip(self._copy_seeds, self.crews, strict=True) for _ in range(crew.n)]
+        pairs = zip(self._copy_seeds, self.crews, strict=True)
+        return [s for s, crew in pairs for _ in range(crew.n)]
 
     def reset(self) -> dict[str, np.ndarray]:
         parts = [crew.reset(seed) for crew, seed in zip(self.crews, self._copy_seeds, strict=True)]

@@ -394,7 +394,8 @@ class GreedyIdentification(BackOff):
         spent = geo.duration * (np.abs(total_v) + turn_cost * np.abs(total_w))
         weight = hyp.weight
         now = -(weight * np.log(np.maximum(weight, 1e-300))).sum(axis=1)
-        return CandidateSet(cand, entropy, spent, now, geo.scale * np.hypot(own[..., 0], own[..., 1]))
+        reach = geo.scale * np.hypot(own[..., 0], own[..., 1])
+        return CandidateSet(cand, entropy, spent, now, reach)
 
     def drive(self, cset: CandidateSet, pick: np.ndarray) -> None:
         """Hold candidate ``pick`` ``(R,)`` of each robot until the next picture."""

@@ -1,4 +1,4 @@
-"""agents: the candidate observation, the vectorized adapter, the scorer, saved agents as policies."""
+"""agents: the candidate observation, the vectorized env, the scorer, saved agents as policies."""
 
 from __future__ import annotations
 
