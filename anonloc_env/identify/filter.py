@@ -104,12 +104,18 @@ class Identifier:
         model: the sensor model (see :class:`SensorModel`).
         n_robots: R, the number of robots identified at once.
         max_tracks: most hypotheses kept per robot (the best ones).
+        fast: take the fast kernels where they apply (the default); ``False`` forces the
+            general path everywhere, the reference the kernels are tested against (same
+            beliefs up to rounding, several times slower at large N).
     """
 
-    def __init__(self, model: SensorModel, n_robots: int, max_tracks: int = 1024) -> None:
+    def __init__(
+        self, model: SensorModel, n_robots: int, max_tracks: int = 1024, *, fast: bool = True
+    ) -> None:
         self.model = model
         self.n = n_robots
         self.max_tracks = max_tracks
+        self.fast = fast
         # A robot is never certain to be in a picture (it may leave the view): a floor of 1e-6
         # keeps its identity recoverable without costing more than one miss per track.
         self.log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
@@ -294,7 +300,7 @@ class Identifier:
             keep = gate.passes(parent, rows, cand)
             parent, cand = parent[keep], cand[keep]
             bg = self._link_bg(block.row[parent], cand, log_bg)
-            if gate.moved is not None:
+            if self.fast and gate.moved is not None:
                 child = self._known_children(block, gate, parent, rows, cand, interval, pix_var, bg)
             else:
                 child = self._children(block.take(parent), rows, cand, interval, pix_var, bg)
@@ -334,7 +340,7 @@ class Identifier:
         start = np.searchsorted(sorted_len, lo, side="left")
         stop = np.searchsorted(sorted_len, hi, side="right")
         counts = stop - start
-        if model.orientation and model.scale is not None:
+        if self.fast and model.orientation and model.scale is not None:
             # Heading and scale known: robots nothing pushed take the fused first leg.
             pushed = np.zeros(self.n, bool) if interval.push is None else interval.push > 0
             fused = ~pushed[live]
