@@ -124,7 +124,7 @@ class SensorModel:
 
 @functools.lru_cache(maxsize=64)
 def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
-    """:meth:`SensorModel.from_config`, computed."""
+    """:meth:`~anonloc_env.identify.model.SensorModel.from_config`, computed."""
     camera = survey(config)
     mean = camera.scale
     u_min, v_min, u_max, v_max = camera.field_of_view

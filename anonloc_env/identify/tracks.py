@@ -172,10 +172,11 @@ def _is_identity(index: np.ndarray) -> bool:
 def _plan(
     bounds: np.ndarray, index: np.ndarray
 ) -> tuple[list[tuple[int, int, int, int]], list[np.ndarray], list[np.ndarray]]:
-    """How :meth:`Tracks.gather` fills its output from parts whose tracks start at ``bounds``:
-    ``(runs, where, local)``, the runs copied as slices ``(to, part, start, count)``, and per
-    part the output positions ``where`` filled one by one from its tracks ``local``. A run is
-    where ``index`` steps by one, within one part, for at least :data:`MIN_RUN` tracks."""
+    """How :meth:`~anonloc_env.identify.tracks.Tracks.gather` fills its output from parts
+    whose tracks start at ``bounds``: ``(runs, where, local)``, the runs copied as slices
+    ``(to, part, start, count)``, and per part the output positions ``where`` filled one by one
+    from its tracks ``local``. A run is where ``index`` steps by one, within one part, for at
+    least :data:`MIN_RUN` tracks."""
     brk = np.diff(index) != 1
     for bound in bounds[1:-1].tolist():
         brk |= index[1:] == bound
