@@ -29,6 +29,7 @@ from anonloc_env.identify.likelihood import (
     Scoring,
     kalman,
     orientation,
+    pruned,
 )
 from anonloc_env.identify.model import LOG_2PI, SensorModel
 from anonloc_env.identify.others import Links
@@ -315,21 +316,7 @@ def known_children(
     if model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = tracks.logw[parent] + scoring.log_pd + child.loglik - log_bg
-    # Pruned as children does: more than PRUNE_NATS below the robot's best child.
-    keep, _ = near_best(slot, logw, PRUNE_NATS)
-    count = len(keep)
-    return Tracks.fresh(
-        slot[keep],
-        cand[keep],
-        z[keep, :2],
-        logw[keep],
-        pos_var=pix_var,
-        theta=wrap_angle(child.theta[keep]),
-        p_tt=child.p_tt[keep],
-        log_s=take_field(child.log_s, keep, count),
-        p_ts=take_field(child.p_ts, keep, count),
-        p_ss=take_field(child.p_ss, keep, count),
-    )
+    return pruned(slot, cand, z, logw, child, pix_var)
 
 
 def _needs_general(

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.arrays import everything, near_best
+from anonloc_env.identify.arrays import everything, near_best, take_field
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.model import (
     GATE_SIGMAS,
@@ -65,7 +65,7 @@ def children(
 ) -> Tracks:
     """The general path: extend each parent track by candidate row ``cand`` (same length), its
     weight and state, whatever the parent knows. ``log_bg`` is what a link is divided by (a
-    log); children more than :data:`PRUNE_NATS` below their robot's best child are dropped."""
+    log); children far below their robot's best child are dropped (:func:`pruned`)."""
     if len(cand) == 0:
         return Tracks.empty()
     z = rows[cand]
@@ -74,21 +74,34 @@ def children(
     if scoring.model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = parent.logw + scoring.log_pd + child.loglik - log_bg
-    # Children more than PRUNE_NATS below their robot's best child are pruned later anyway
-    # (the best over all hypotheses is at least as high): drop them before they are copied.
-    # Parents come grouped by robot, so the best child of each robot is a reduceat.
-    keep, _ = near_best(parent.slot, logw, PRUNE_NATS)
+    return pruned(parent.slot, cand, z, logw, child, pix_var)
+
+
+def pruned(
+    slot: np.ndarray,
+    cand: np.ndarray,
+    z: np.ndarray,
+    logw: np.ndarray,
+    child: Child,
+    pix_var: float,
+) -> Tracks:
+    """The new tracks of robots ``slot`` (grouped) at rows ``cand`` (detections ``z``), log
+    weights ``logw`` and states ``child``, less those more than :data:`PRUNE_NATS` below their
+    robot's best: they would be pruned later anyway (the best over all hypotheses is at least as
+    high), so they are dropped before they are copied."""
+    keep, _ = near_best(slot, logw, PRUNE_NATS)
+    count = len(keep)
     return Tracks.fresh(
-        parent.slot[keep],
+        slot[keep],
         cand[keep],
         z[keep, :2],
         logw[keep],
         pos_var=pix_var,
         theta=wrap_angle(child.theta[keep]),
         p_tt=child.p_tt[keep],
-        log_s=child.log_s[keep],
-        p_ts=child.p_ts[keep],
-        p_ss=child.p_ss[keep],
+        log_s=take_field(child.log_s, keep, count),
+        p_ts=take_field(child.p_ts, keep, count),
+        p_ss=take_field(child.p_ss, keep, count),
     )
 
 
