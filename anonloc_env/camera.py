@@ -15,12 +15,16 @@ through the Jacobian of ``G`` at its position.
 
 Anything that yields :class:`Picture` objects from poses can stand in for :class:`Camera` (the
 :class:`DetectionSource` protocol): nothing downstream knows how a picture was made. With
-``camera.source = "image"``, :func:`detection_source` picks :mod:`anonloc_env.images`' rendered
-and detected pictures instead.
+``camera.source = "image"``, :func:`anonloc_env.detection.detection_source` picks
+:mod:`anonloc_env.images`' rendered and detected pictures instead.
+
+:func:`survey` surveys the camera once per config: its local scale's mean, spread and largest
+gradient over the arena, and its field of view, what the sensor model and the localizers read.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Protocol
@@ -109,17 +113,6 @@ def detection_capacity(config: EnvConfig) -> int:
         tail = 1.0 - np.cumsum(np.exp(k * math.log(mean) - mean - log_factorial))
         extra = int(np.argmax(tail <= 1e-6))
     return config.n_robots + extra
-
-
-def detection_source(config: EnvConfig, camera: Camera) -> DetectionSource:
-    """The detection source ``config.camera.source`` names: ``camera`` itself for
-    ``"geometric"``, an :class:`anonloc_env.images.ImageCamera` sharing its geometry for
-    ``"image"`` (imports OpenCV)."""
-    if config.camera.source == "image":
-        from anonloc_env.images.source import ImageCamera  # OpenCV: the optional images extra
-
-        return ImageCamera(config, camera)
-    return camera
 
 
 class Camera:
@@ -245,3 +238,47 @@ class Camera:
             index=index,
             has_orientation=cam.orientation,
         )
+
+
+@dataclass(frozen=True)
+class CameraSurvey:
+    """What a robot knows of the camera from its specs: the local scale (image units per metre)
+    over the arena, sampled on a grid, and the field of view.
+
+    Attributes:
+        scale: the mean local scale (what the paper did with its 20.8 to 22.07 range).
+        scale_spread: its standard deviation over the grid relative to the mean (0 for a camera
+            looking straight down).
+        scale_gradient: the largest relative change of the local scale per metre (1/m; 0 for a
+            camera looking straight down), from finite differences at the grid points.
+        field_of_view: ``(u_min, v_min, u_max, v_max)`` where detections can appear.
+    """
+
+    scale: float
+    scale_spread: float
+    scale_gradient: float
+    field_of_view: tuple[float, float, float, float]
+
+
+#: Points per side of the grid :func:`survey` samples the local scale on.
+SURVEY_POINTS = 9
+
+
+@functools.lru_cache(maxsize=64)
+def survey(config: EnvConfig) -> CameraSurvey:
+    """Survey ``config``'s camera over its arena (once per config: cached)."""
+    camera = Camera(config)
+    width, height = config.arena_size
+    axes = (np.linspace(0, width, SURVEY_POINTS), np.linspace(0, height, SURVEY_POINTS))
+    grid = np.stack(np.meshgrid(*axes), axis=-1).reshape(-1, 2)
+    local = camera.local_scale(grid)
+    mean = float(local.mean())
+    step = 1e-3 * max(width, height)
+    along_x = camera.local_scale(grid + np.array([step, 0.0])) - local
+    along_y = camera.local_scale(grid + np.array([0.0, step])) - local
+    return CameraSurvey(
+        scale=mean,
+        scale_spread=float(local.std() / mean),
+        scale_gradient=float(np.max(np.hypot(along_x, along_y) / (local * step))),
+        field_of_view=camera.field_of_view,
+    )

@@ -13,8 +13,9 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from anonloc_env.actions import stack_actions
-from anonloc_env.camera import Camera, DetectionSource, Picture, detection_source
+from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.config import EnvConfig
+from anonloc_env.detection import detection_source
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space, space_copy
 from anonloc_env.odometry import Interval, Odometry

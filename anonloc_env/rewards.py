@@ -157,10 +157,8 @@ class InformationGain:
         """Start a fresh identifier (with the true noise model) and read the first picture."""
         from anonloc_env.identify import Identifier, SensorModel  # heavy; built once per episode
 
-        if getattr(self, "_config", None) != config:
-            self._config = config
-            self._model = SensorModel.from_config(config)
-        self.identifier = Identifier(self._model, config.n_robots)
+        # The model is derived once per config (SensorModel.from_config caches it).
+        self.identifier = Identifier(SensorModel.from_config(config), config.n_robots)
         self.log_true: np.ndarray | None = None
         if picture is not None:
             self.log_true = self._observe(picture, None)

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import anonloc_env
-from anonloc_env.camera import Camera, Picture, detection_capacity
+from anonloc_env.camera import Camera, Picture, detection_capacity, survey
+from anonloc_env.identify import SensorModel
+from tests.cli_helpers import ROOT
 from tests.helpers import constant_actions
 
 
@@ -206,3 +210,60 @@ def test_a_detector_that_overflows_its_capacity_is_an_error() -> None:
         anonloc_env.parallel_env(n_robots=3, detector=_Perfect(Camera(config), 2)).reset(seed=0)
     with pytest.raises(ValueError, match=r"detector\.capacity must be an integer"):
         anonloc_env.parallel_env(n_robots=3, detector=_Perfect(Camera(config), 0))
+
+
+def test_survey_of_an_untilted_camera_is_its_scale_everywhere() -> None:
+    config = anonloc_env.make_config(arena_size=(6.0, 4.0), camera={"scale": 37.5})
+    found = survey(config)
+    assert found.scale == pytest.approx(37.5, rel=1e-12)
+    assert found.scale_spread == pytest.approx(0.0, abs=1e-12)
+    assert found.scale_gradient == pytest.approx(0.0, abs=1e-9)
+    assert found.field_of_view == Camera(config).field_of_view
+
+
+def test_survey_of_a_tilted_camera_has_the_gradient_of_its_local_scale() -> None:
+    """With a tilt about x the local scale ``s sqrt(cos(tilt)) / w^(3/2)`` changes along y
+    only; its largest relative change per metre is at the near edge (smallest w):
+    ``1.5 sin(tilt) / (height w)``, up to the survey's finite difference."""
+    tilt, height = math.radians(10.0), 12.0
+    config = anonloc_env.make_config(
+        arena_size=(8.0, 8.0), camera={"scale": 20.0, "tilt_deg": 10.0, "height": height}
+    )
+    found = survey(config)
+    w_near = 1.0 - 4.0 * math.sin(tilt) / height
+    assert found.scale_gradient == pytest.approx(1.5 * math.sin(tilt) / (height * w_near), rel=1e-2)
+    ys = np.linspace(0.0, 8.0, 9)
+    local = 20.0 * math.sqrt(math.cos(tilt)) / (1.0 + (ys - 4.0) * math.sin(tilt) / height) ** 1.5
+    assert found.scale == pytest.approx(local.mean(), rel=1e-12)
+    assert found.scale_spread == pytest.approx(local.std() / local.mean(), rel=1e-9)
+
+
+def test_the_camera_is_surveyed_and_the_sensor_model_derived_once_per_config() -> None:
+    config = anonloc_env.make_config("paper-motion", n_robots=7)
+    again = anonloc_env.make_config("paper-motion", n_robots=7)  # equal, not the same object
+    assert survey(config) is survey(again)
+    model = SensorModel.from_config(config)
+    assert SensorModel.from_config(again) is model
+    assert model.scale == survey(config).scale
+    assert model.scale_spread == survey(config).scale_spread
+    unknown = SensorModel.from_config(config, scale_known=False)
+    assert unknown.scale is None
+    assert unknown.scale_range == (0.5 * model.scale, 2.0 * model.scale)
+
+
+def test_the_geometric_camera_never_imports_the_image_path() -> None:
+    """An env on the geometric camera, its reward's identifier and a sensor model run without
+    :mod:`anonloc_env.images` (it imports only when ``camera.source == "image"``)."""
+    script = (
+        "import sys, anonloc_env\n"
+        "from anonloc_env.identify import SensorModel\n"
+        "env = anonloc_env.parallel_env(n_robots=4)\n"
+        "env.reset(seed=0)\n"
+        "env.step({a: env.action_space(a).sample() for a in env.agents})\n"
+        "SensorModel.from_config(env.config)\n"
+        "print(sorted(m for m in sys.modules if m.startswith('anonloc_env.images')))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    assert out.stdout.strip() == "[]"

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from anonloc_env.identify.tracks import FIELDS, Tracks, shared
+from anonloc_env.identify.arrays import shared
+from anonloc_env.identify.tracks import FIELDS, Tracks
 
 
 def _part(rng: np.random.Generator, count: int, slot0: int) -> Tracks:

@@ -25,8 +25,12 @@ The posterior over the rows of the newest picture (plus "not in it") is calibrat
 matches the world: decisions taken at belief 0.99 are wrong about 1 % of the time or less.
 
 Layout: :mod:`~anonloc_env.identify.model` (the sensor model and the densities),
-:mod:`~anonloc_env.identify.tracks` (hypotheses and how a row extends one),
+:mod:`~anonloc_env.identify.tracks` (the hypotheses' container),
+:mod:`~anonloc_env.identify.arrays` (helpers on arrays grouped by robot),
 :mod:`~anonloc_env.identify.gate` (the cheap test of which rows may extend a hypothesis),
+:mod:`~anonloc_env.identify.likelihood` (how a row extends a hypothesis: the general path),
+:mod:`~anonloc_env.identify.kernels` (faster forms of two of its cases; ``fast=False`` on the
+:class:`Identifier` forces the general path),
 :mod:`~anonloc_env.identify.others` (the other robots persisting between pictures, where pictures
 have misses or false positives: a link's weight in place of ``1 / lambda``),
 :mod:`~anonloc_env.identify.filter` (the :class:`Identifier`: gating, pruning, beliefs) and

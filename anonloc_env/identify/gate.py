@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from anonloc_env.geometry import wrap_angle
+from anonloc_env.identify.arrays import is_shared
 from anonloc_env.identify.model import SensorModel
-from anonloc_env.identify.tracks import Tracks, is_shared
+from anonloc_env.identify.tracks import Tracks
 from anonloc_env.odometry import Interval
 
 #: Hypotheses more than this many nats below their robot's best are dropped (a factor 3e-7:

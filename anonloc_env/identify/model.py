@@ -3,15 +3,15 @@ of a displacement under it. See :mod:`anonloc_env.identify` for the model as a w
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from anonloc_env._checks import check_number, check_pair
-from anonloc_env.camera import Camera
-from anonloc_env.config import EnvConfig
-from anonloc_env.images.errors import effective_camera
+from anonloc_env.camera import survey
+from anonloc_env.config import CameraConfig, EnvConfig
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -104,39 +104,15 @@ class SensorModel:
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
-        """The model a robot would build from the nominal specs of ``config``.
+        """The model a robot would build from the nominal specs of ``config`` (derived once per
+        config and ``scale_known``, then cached: the model is frozen, so it is shared).
 
         The scale is the mean over the arena of the camera's local scale (what the paper did with
-        its 20.8 to 22.07 range); its spread across the arena becomes ``scale_spread``. With
-        ``scale_known=False`` the scale is left to be estimated within 0.5x to 2x of it.
+        its 20.8 to 22.07 range); its spread across the arena becomes ``scale_spread`` (see
+        :func:`anonloc_env.camera.survey`). With ``scale_known=False`` the scale is left to
+        be estimated within 0.5x to 2x of it.
         """
-        camera = Camera(config)
-        width, height = config.arena_size
-        grid = np.stack(
-            np.meshgrid(np.linspace(0, width, 9), np.linspace(0, height, 9)), axis=-1
-        ).reshape(-1, 2)
-        local = camera.local_scale(grid)
-        mean = float(local.mean())
-        u_min, v_min, u_max, v_max = camera.field_of_view
-        cam = effective_camera(config)  # the image source's measured errors, if it is used
-        return cls(
-            scale=mean if scale_known else None,
-            scale_range=(0.5 * mean, 2.0 * mean),
-            scale_spread=float(local.std() / mean),
-            pixel_noise=cam.pixel_noise,
-            orientation=cam.orientation,
-            orientation_noise=math.radians(cam.orientation_noise_deg),
-            p_detect=1.0 - cam.p_miss,
-            image_area=max((u_max - u_min) * (v_max - v_min), 1e-9),
-            odometry_noise=config.robot.odometry_noise,
-            n_robots=config.n_robots,
-            false_positives=cam.false_positives,
-            push_share=PUSH_SHARE,
-            others_sigma=0.5 * config.robot.v_max * config.schedule.picture_interval,
-            others_repeat=OTHERS_REPEAT,
-            others_jitter=OTHERS_JITTER,
-            others_turn=OTHERS_TURN,
-        )
+        return _from_config(config, scale_known)
 
     @property
     def scale_bounds(self) -> tuple[float, float]:
@@ -144,6 +120,43 @@ class SensorModel:
         if self.scale is not None:
             return (self.scale, self.scale)
         return self.scale_range
+
+
+@functools.lru_cache(maxsize=64)
+def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
+    """:meth:`~anonloc_env.identify.model.SensorModel.from_config`, computed."""
+    camera = survey(config)
+    mean = camera.scale
+    u_min, v_min, u_max, v_max = camera.field_of_view
+    cam = _camera_section(config)
+    return SensorModel(
+        scale=mean if scale_known else None,
+        scale_range=(0.5 * mean, 2.0 * mean),
+        scale_spread=camera.scale_spread,
+        pixel_noise=cam.pixel_noise,
+        orientation=cam.orientation,
+        orientation_noise=math.radians(cam.orientation_noise_deg),
+        p_detect=1.0 - cam.p_miss,
+        image_area=max((u_max - u_min) * (v_max - v_min), 1e-9),
+        odometry_noise=config.robot.odometry_noise,
+        n_robots=config.n_robots,
+        false_positives=cam.false_positives,
+        push_share=PUSH_SHARE,
+        others_sigma=0.5 * config.robot.v_max * config.schedule.picture_interval,
+        others_repeat=OTHERS_REPEAT,
+        others_jitter=OTHERS_JITTER,
+        others_turn=OTHERS_TURN,
+    )
+
+
+def _camera_section(config: EnvConfig) -> CameraConfig:
+    """The camera section that describes the pictures: the config's own, or for the image
+    source the image path's measured errors (the image path is imported only then)."""
+    if config.camera.source != "image":
+        return config.camera
+    from anonloc_env.images.errors import effective_camera  # the image path, on demand
+
+    return effective_camera(config)
 
 
 #: What contacts move a robot unseen is far below its bound (``push_bound``): measured against

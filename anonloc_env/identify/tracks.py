@@ -1,30 +1,24 @@
-"""Tracks: the explicit hypotheses of all robots, and how one is extended by a candidate row.
+"""Tracks: the explicit hypotheses of all robots, one flat array per field, grouped by robot.
 
 A track is which row of each picture was the robot (or that it was missed), with a Gaussian
-estimate of its image heading and log scale. The filter scores a batch of (track, row)
-candidates under the model of :mod:`anonloc_env.identify.model`: the ring density while the
-heading is unknown, an extended Kalman filter on ``(theta, log s)`` once it is known.
+estimate of its image heading and log scale. How a row extends a track is in
+:mod:`anonloc_env.identify.likelihood`; the helpers on grouped and shared arrays in
+:mod:`anonloc_env.identify.arrays`.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from functools import cached_property
+from dataclasses import dataclass, fields
 
 import numpy as np
 
-from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify.model import (
-    GATE_SIGMAS,
-    LOG_2PI,
-    SensorModel,
-    push_covariance,
-    push_isotropic,
-    ring_loglik,
-)
+from anonloc_env.geometry import rotate
+from anonloc_env.identify.arrays import alike, shared, take_field
 from anonloc_env.neighbours import expand_ranges
 from anonloc_env.odometry import Interval
+
+#: ``Tracks.gather`` copies runs of at least this many consecutive tracks as slices.
+MIN_RUN = 32
 
 
 @dataclass
@@ -48,21 +42,52 @@ class Tracks:
     turn: np.ndarray
 
     @classmethod
-    def empty(cls) -> Tracks:
-        z = np.zeros(0)
+    def fresh(
+        cls,
+        slot: np.ndarray,
+        row: np.ndarray,
+        pos: np.ndarray,
+        logw: np.ndarray,
+        *,
+        pos_var: np.ndarray | float,
+        theta: np.ndarray | float,
+        p_tt: np.ndarray | float,
+        log_s: np.ndarray | float,
+        p_ts: np.ndarray | float = 0.0,
+        p_ss: np.ndarray | float = 0.0,
+        carry: np.ndarray | None = None,
+        turn: np.ndarray | None = None,
+    ) -> Tracks:
+        """New tracks of robots ``slot`` at rows ``row`` (-1: missed) and positions ``pos``,
+        log weights ``logw``. A float field given as a number is one that every track holds
+        alike (a :func:`~anonloc_env.identify.arrays.shared` field); ``carry`` and ``turn``
+        left out mean no carried motion."""
+        count = len(slot)
+
+        def field(value: np.ndarray | float) -> np.ndarray:
+            return shared(float(value), count) if np.ndim(value) == 0 else np.asarray(value)
+
         return cls(
-            np.zeros(0, np.int64),
-            np.zeros(0, np.int64),
-            np.zeros((0, 2)),
-            z,
-            z,
-            z,
-            z,
-            z,
-            z,
-            z,
-            np.zeros((0, 2)),
-            z,
+            slot=slot,
+            row=row,
+            pos=pos,
+            pos_var=field(pos_var),
+            theta=field(theta),
+            p_tt=field(p_tt),
+            log_s=field(log_s),
+            p_ts=field(p_ts),
+            p_ss=field(p_ss),
+            logw=logw,
+            carry=shared(0.0, count, 2) if carry is None else carry,
+            turn=shared(0.0, count) if turn is None else turn,
+        )
+
+    @classmethod
+    def empty(cls) -> Tracks:
+        """No track."""
+        none = np.zeros(0, np.int64)
+        return cls.fresh(
+            none, none, np.zeros((0, 2)), np.zeros(0), pos_var=0.0, theta=0.0, p_tt=0.0, log_s=0.0
         )
 
     def own_motion(self, interval: Interval) -> tuple[np.ndarray, np.ndarray]:
@@ -96,12 +121,12 @@ class Tracks:
         if len(parts) < 2:
             return parts[0] if parts else Tracks.empty()
         count = sum(len(p) for p in parts)
-        fields = []
+        out = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
-            same = _alike(arrays, count)
-            fields.append(np.concatenate(arrays) if same is None else same)
-        return Tracks(*fields)
+            same = alike(arrays, count)
+            out.append(np.concatenate(arrays) if same is None else same)
+        return Tracks(*out)
 
     @staticmethod
     def gather(parts: list[Tracks], index: np.ndarray) -> Tracks:
@@ -115,411 +140,70 @@ class Tracks:
         bounds = np.cumsum([0] + [len(p) for p in parts])
         if len(index) == bounds[-1] and len(parts) == 1 and _is_identity(index):
             return parts[0]
-        # Runs: where index steps by one, within one part, for at least MIN_RUN tracks.
-        brk = np.diff(index) != 1
-        for bound in bounds[1:-1].tolist():
-            brk |= index[1:] == bound
-        first = np.concatenate([[0], np.flatnonzero(brk) + 1])
-        size = np.diff(np.append(first, len(index)))
-        long = size >= MIN_RUN
-        if int(size[long].sum()) * 2 < len(index):  # mostly scattered: by index alone
-            first, size = first[:0], size[:0]
-            part = np.searchsorted(bounds, index, side="right") - 1
-            where = [np.flatnonzero(part == k) for k in range(len(parts))]
-        else:
-            first, size = first[long], size[long]
-            short = np.ones(len(index), dtype=bool)
-            short[expand_ranges(first, size)] = False
-            at = np.flatnonzero(short)
-            part = np.searchsorted(bounds, index[at], side="right") - 1
-            where = [at[part == k] for k in range(len(parts))]
-        local = [index[w] - bounds[k] for k, w in enumerate(where)]
-        src_part = np.searchsorted(bounds, index[first], side="right") - 1
-        runs = list(
-            zip(
-                first.tolist(),
-                src_part.tolist(),
-                (index[first] - bounds[src_part]).tolist(),
-                size.tolist(),
-                strict=True,
-            )
-        )
-        fields = []
+        runs, where, local = _plan(bounds, index)
+        out = []
         for f in FIELDS:
             arrays = [getattr(p, f) for p in parts]
-            same = _alike(arrays, len(index))
+            same = alike(arrays, len(index))
             if same is not None:
-                fields.append(same)
+                out.append(same)
                 continue
-            out = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
+            into = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
             for to, k, start, count in runs:
-                out[to : to + count] = arrays[k][start : start + count]
+                into[to : to + count] = arrays[k][start : start + count]
             for w, i, arr in zip(where, local, arrays, strict=True):
                 if len(w):
-                    out[w] = arr[i]
-            fields.append(out)
-        return Tracks(*fields)
+                    into[w] = arr[i]
+            out.append(into)
+        return Tracks(*out)
 
     def __len__(self) -> int:
         return len(self.slot)
 
 
-def shared(value: float, count: int, width: int = 0) -> np.ndarray:
-    """``count`` copies of ``value`` (``(count, width)`` if ``width``), read-only and taking no
-    memory (stride 0): a field that every track of a batch holds alike (a first leg's position
-    variance, a known scale, no carried motion). ``Tracks.take``, ``concat`` and ``gather`` keep
-    such a field shared, so large batches do not write it out."""
-    shape = (count, width) if width else (count,)
-    return np.broadcast_to(np.float64(value), shape)
-
-
-def is_shared(a: np.ndarray) -> bool:
-    """Whether ``a`` is a shared field (see :func:`shared`)."""
-    return a.ndim > 0 and a.strides[0] == 0 and len(a) > 0
-
-
-def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
-    """``a[index]`` (``count`` long); a shared field stays shared."""
-    if is_shared(a):
-        return np.broadcast_to(a[0], (count, *a.shape[1:]))
-    return a[index]
-
-
-def _alike(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
-    """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
-    ``None`` if they do not."""
-    first = arrays[0]
-    if not all(is_shared(a) for a in arrays):
-        return None
-    if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
-        return None
-    return np.broadcast_to(first[0], (count, *first.shape[1:]))
-
-
-#: ``Tracks.gather`` copies runs of at least this many consecutive tracks as slices.
-MIN_RUN = 32
+#: The fields of :class:`Tracks`, in order.
+FIELDS = tuple(f.name for f in fields(Tracks))
 
 
 def _is_identity(index: np.ndarray) -> bool:
     return bool(index[0] == 0 and (np.diff(index) == 1).all()) if len(index) else True
 
 
-def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
-    """``index`` (increasing, unique), or a slice when it selects all ``n`` items (no copies)."""
-    return slice(None) if len(index) == n else index
-
-
-def group_starts(slot: np.ndarray) -> np.ndarray:
-    """Indices where each run of equal values of ``slot`` starts (``slot`` grouped)."""
-    if len(slot) == 0:
-        return np.zeros(0, dtype=np.int64)
-    new = np.empty(len(slot), dtype=bool)
-    new[0] = True
-    np.not_equal(slot[1:], slot[:-1], out=new[1:])
-    return np.flatnonzero(new)
-
-
-def rank_in_group(slot: np.ndarray) -> np.ndarray:
-    """Position of each item within its run of equal ``slot`` values (``slot`` grouped)."""
-    starts = group_starts(slot)
-    sizes = np.diff(np.append(starts, len(slot)))
-    return np.arange(len(slot)) - np.repeat(starts, sizes)
-
-
-FIELDS = (
-    "slot",
-    "row",
-    "pos",
-    "pos_var",
-    "theta",
-    "p_tt",
-    "log_s",
-    "p_ts",
-    "p_ss",
-    "logw",
-    "carry",
-    "turn",
-)
-
-
-class Geometry:
-    """Per candidate (parent track, new row): the displacement and its noise.
-
-    What every case needs is computed at once; the directions and lengths only some cases use
-    are computed when first asked for.
-
-    Attributes:
-        d: ``(K, 2)`` own displacement of the parent's robot (m).
-        rho0: ``|d|``.
-        dphi: own heading change (rad); ``var_dphi`` its variance.
-        delta: ``(K, 2)`` image displacement from the parent's position to the row.
-        s: scale the parent assumes (its estimate, or the largest possible).
-        push_var: isotropic variance per component of the unseen contact pushes (image units).
-        base_var: isotropic variance per component without the pushes; ``iso_var`` with them.
-    """
-
-    def __init__(
-        self, parent: Tracks, z: np.ndarray, interval: Interval, model: SensorModel, pix_var: float
-    ) -> None:
-        self.slot = slot = parent.slot
-        self.model = model
-        self.interval = interval
-        self.d, self.dphi = d, _ = parent.own_motion(interval)
-        self.rho0 = rho0 = np.hypot(d[:, 0], d[:, 1])
-        var_d_all, var_dphi_all = interval.variances(model.odometry_noise)
-        self.var_dphi = var_dphi_all[slot]
-        self.delta = z[:, :2] - parent.pos
-        scale_known = np.isfinite(parent.log_s)
-        self.s_high = s_high = model.scale_bounds[1]
-        if scale_known.all():
-            s = np.exp(parent.log_s)
-        else:
-            s = np.where(scale_known, np.exp(np.where(scale_known, parent.log_s, 0.0)), s_high)
-        self.s = s
-        self.base_var = (
-            pix_var + parent.pos_var + s**2 * var_d_all[slot] + (model.scale_spread * s * rho0) ** 2
-        )
-        if interval.push is None:
-            self.pushed = np.zeros(len(slot), dtype=bool)
-            self.iso_var = self.base_var
-        else:
-            self.pushed = interval.push[slot] > 0
-            self.iso_var = self.base_var + s**2 * push_isotropic(interval, model)[slot]
-
-    @cached_property
-    def r(self) -> np.ndarray:
-        """``|delta|``."""
-        return np.hypot(self.delta[:, 0], self.delta[:, 1])
-
-    @cached_property
-    def ang_delta(self) -> np.ndarray:
-        """Direction of ``delta`` (rad)."""
-        return np.arctan2(self.delta[:, 1], self.delta[:, 0])
-
-    @cached_property
-    def ang_d(self) -> np.ndarray:
-        """Direction of ``d`` (rad)."""
-        return np.arctan2(self.d[:, 1], self.d[:, 0])
-
-    @cached_property
-    def still(self) -> np.ndarray:
-        """Too little motion to learn the heading from."""
-        return self.s_high * self.rho0 < 2.0 * np.sqrt(self.iso_var)
-
-    def push_cov(self, which: np.ndarray) -> np.ndarray:
-        """``(k, 2, 2)`` unseen contact pushes (m^2, robot frame) of candidates ``which``."""
-        return push_covariance(self.interval, self.model)[self.slot[which]]
-
-    def standing_loglik(self, which: np.ndarray) -> np.ndarray:
-        """Log density of the displacement of a robot that did not move, for ``which``."""
-        var = self.iso_var[which]
-        return -LOG_2PI - np.log(var) - self.r[which] ** 2 / (2 * var)
-
-
-@dataclass
-class Child:
-    """The new tracks' log-likelihoods and states, filled case by case."""
-
-    loglik: np.ndarray
-    theta: np.ndarray
-    p_tt: np.ndarray
-    log_s: np.ndarray
-    p_ts: np.ndarray
-    p_ss: np.ndarray
-
-    @classmethod
-    def start(cls, parent: Tracks) -> Child:
-        n = len(parent)
-        return cls(
-            loglik=np.full(n, -np.inf),
-            theta=np.full(n, np.nan),
-            p_tt=np.full(n, np.inf),
-            log_s=parent.log_s.copy(),
-            p_ts=parent.p_ts.copy(),
-            p_ss=parent.p_ss.copy(),
-        )
-
-    def heading_from_displacement(self, which: np.ndarray, geo: Geometry) -> None:
-        """A first heading for ``which``: the image direction of the move minus that of the
-        robot's own, turned by its own turn; uncertain by the noise over the length."""
-        self.theta[which] = geo.ang_delta[which] - geo.ang_d[which] + geo.dphi[which]
-        self.p_tt[which] = (
-            geo.iso_var[which] / np.maximum(geo.r[which], 1e-12) ** 2 + geo.var_dphi[which]
-        )
-
-
-#: Quadrature points per standard deviation of the narrowest likelihood in log s (and at most
-#: :data:`SCALE_POINTS_MAX` in all) for the first leg with the scale unknown.
-SCALE_POINTS_PER_SIGMA = 3.0
-SCALE_POINTS_MAX = 512
-
-
-def scale_free(mask: np.ndarray, geo: Geometry, child: Child, s_low: float, s_high: float) -> None:
-    """Heading and scale unknown: the ring density of the displacement (heading marginalised)
-    integrated over a log-uniform scale by the midpoint rule, and the scale's posterior mean and
-    variance from the same quadrature (its edges are soft, as the pixel noise makes them)."""
-    k = np.flatnonzero(mask)
-    if len(k) == 0:
-        return
-    r, rho0, var = geo.r[k], geo.rho0[k], geo.iso_var[k]
-    width = math.log(s_high / s_low) if s_high > s_low else 0.0
-    if width == 0.0:
-        log_s = np.array([math.log(s_low)])
+def _plan(
+    bounds: np.ndarray, index: np.ndarray
+) -> tuple[list[tuple[int, int, int, int]], list[np.ndarray], list[np.ndarray]]:
+    """How :meth:`~anonloc_env.identify.tracks.Tracks.gather` fills its output from parts
+    whose tracks start at ``bounds``: ``(runs, where, local)``, the runs copied as slices
+    ``(to, part, start, count)``, and per part the output positions ``where`` filled one by one
+    from its tracks ``local``. A run is where ``index`` steps by one, within one part, for at
+    least :data:`MIN_RUN` tracks."""
+    brk = np.diff(index) != 1
+    for bound in bounds[1:-1].tolist():
+        brk |= index[1:] == bound
+    first = np.concatenate([[0], np.flatnonzero(brk) + 1])
+    size = np.diff(np.append(first, len(index)))
+    long = size >= MIN_RUN
+    n_parts = len(bounds) - 1
+    if int(size[long].sum()) * 2 < len(index):  # mostly scattered: by index alone
+        first, size = first[:0], size[:0]
+        part = np.searchsorted(bounds, index, side="right") - 1
+        where = [np.flatnonzero(part == k) for k in range(n_parts)]
     else:
-        narrowest = float(np.min(np.sqrt(var) / np.maximum(s_high * rho0, 1e-12)))
-        count = min(max(math.ceil(SCALE_POINTS_PER_SIGMA * width / narrowest), 8), SCALE_POINTS_MAX)
-        log_s = math.log(s_low) + (np.arange(count) + 0.5) * (width / count)
-    ll = ring_loglik(r[:, None], np.exp(log_s)[None, :] * rho0[:, None], var[:, None])
-    top = ll.max(axis=1, keepdims=True)
-    w = np.exp(ll - top)
-    total = w.sum(axis=1)
-    child.loglik[k] = top[:, 0] + np.log(total) - math.log(len(log_s))
-    mean = (w * log_s[None, :]).sum(axis=1) / total
-    spread = (w * (log_s[None, :] - mean[:, None]) ** 2).sum(axis=1) / total
-    child.log_s[k] = mean
-    # At least the quadrature's own resolution, so that a sharp posterior is not made exact.
-    child.p_ss[k] = spread + (width / len(log_s)) ** 2 / 12.0
-    child.p_ts[k] = 0.0
-
-
-def direction_only(
-    mask: np.ndarray,
-    geo: Geometry,
-    parent: Tracks,
-    child: Child,
-    s_low: float,
-    s_high: float,
-) -> None:
-    """Heading known, scale unknown: the direction is tested, the length sets the scale."""
-    moving = np.flatnonzero(mask & ~geo.still)
-    rr = np.maximum(geo.r[moving], 1e-12)
-    var = geo.iso_var[moving]
-    rho0 = geo.rho0[moving]
-    width = math.log(s_high / s_low) if s_high > s_low else 1e-9
-    predicted = parent.theta[moving] + geo.ang_d[moving]
-    err = wrap_angle(geo.ang_delta[moving] - predicted)
-    var_ang = parent.p_tt[moving] + var / rr**2
-    sigma = np.sqrt(var)
-    inside = (rr >= s_low * rho0 - GATE_SIGMAS * sigma) & (
-        rr <= s_high * rho0 + GATE_SIGMAS * sigma
+        first, size = first[long], size[long]
+        short = np.ones(len(index), dtype=bool)
+        short[expand_ranges(first, size)] = False
+        at = np.flatnonzero(short)
+        part = np.searchsorted(bounds, index[at], side="right") - 1
+        where = [at[part == k] for k in range(n_parts)]
+    local = [index[w] - bounds[k] for k, w in enumerate(where)]
+    src_part = np.searchsorted(bounds, index[first], side="right") - 1
+    runs = list(
+        zip(
+            first.tolist(),
+            src_part.tolist(),
+            (index[first] - bounds[src_part]).tolist(),
+            size.tolist(),
+            strict=True,
+        )
     )
-    # Angle density times the log-uniform length density, per unit area (the 1/r Jacobian).
-    angle_ll = -0.5 * (math.log(2 * math.pi) + np.log(var_ang) + err**2 / var_ang)
-    child.loglik[moving] = np.where(inside, angle_ll - 2.0 * np.log(rr) - math.log(width), -np.inf)
-    gain = parent.p_tt[moving] / var_ang
-    child.theta[moving] = parent.theta[moving] + gain * err + geo.dphi[moving]
-    child.p_tt[moving] = parent.p_tt[moving] * (1 - gain) + geo.var_dphi[moving]
-    child.log_s[moving] = np.log(rr / rho0)
-    child.p_ss[moving] = var / rr**2
-    child.p_ts[moving] = 0.0
-    standing = np.flatnonzero(mask & geo.still)
-    child.loglik[standing] = geo.standing_loglik(standing)
-    child.theta[standing] = parent.theta[standing] + geo.dphi[standing]
-    child.p_tt[standing] = parent.p_tt[standing] + geo.var_dphi[standing]
-
-
-def kalman(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:
-    """Heading known, scale known or estimated: an extended Kalman filter on ``(theta, log s)``
-    predicting ``q = p + s R(theta) d``."""
-    k = np.flatnonzero(mask)
-    sel = everything(k, len(mask))
-    # Scale known exactly and no contact: the filter is on theta alone (see _kalman_heading).
-    simple = (parent.p_ss[sel] == 0.0) & (parent.p_ts[sel] == 0.0) & ~geo.pushed[sel]
-    if simple.all():
-        _kalman_heading(k, geo, parent, child)
-        return
-    _kalman_heading(k[simple], geo, parent, child)
-    k = k[~simple]
-    th, ls = parent.theta[k], parent.log_s[k]
-    ptt, pts, pss = parent.p_tt[k], parent.p_ts[k], parent.p_ss[k]
-    # Unseen pushes (robot frame, scaled to the image) turned by the heading: R C R^T.
-    push = geo.push_cov(k) * (geo.s[k] ** 2)[:, None, None]
-    c, sn = np.cos(th), np.sin(th)
-    cxx, cxy, cyy = push[:, 0, 0], push[:, 0, 1], push[:, 1, 1]
-    q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
-    q12 = c * sn * (cxx - cyy) + (c * c - sn * sn) * cxy
-    q22 = sn * sn * cxx + 2 * c * sn * cxy + c * c * cyy
-    s = np.exp(ls)
-    pred = rotate(geo.d[k], th) * s[:, None]  # h(x) = s R(theta) d
-    h_t = rotate(pred, math.pi / 2.0)  # dh/dtheta
-    h_s = pred  # dh/dlog s
-    e = geo.delta[k] - pred
-    # S = base I + R C R^T + H P H^T with H = [h_t h_s] (2x2), P = [[ptt, pts], [pts, pss]].
-    hp_t = h_t * ptt[:, None] + h_s * pts[:, None]  # H P first column
-    hp_s = h_t * pts[:, None] + h_s * pss[:, None]  # H P second column
-    base = geo.base_var[k]
-    s11 = base + q11 + hp_t[:, 0] * h_t[:, 0] + hp_s[:, 0] * h_s[:, 0]
-    s12 = q12 + hp_t[:, 0] * h_t[:, 1] + hp_s[:, 0] * h_s[:, 1]
-    s22 = base + q22 + hp_t[:, 1] * h_t[:, 1] + hp_s[:, 1] * h_s[:, 1]
-    det = s11 * s22 - s12**2
-    i11, i12, i22 = s22 / det, -s12 / det, s11 / det
-    maha = e[:, 0] ** 2 * i11 + 2 * e[:, 0] * e[:, 1] * i12 + e[:, 1] ** 2 * i22
-    child.loglik[k] = -LOG_2PI - 0.5 * np.log(det) - 0.5 * maha
-    # Gain K = P H^T S^-1 (2x2); rows: theta, log s.
-    sinv_e = np.column_stack([i11 * e[:, 0] + i12 * e[:, 1], i12 * e[:, 0] + i22 * e[:, 1]])
-    dth = np.einsum("ij,ij->i", hp_t, sinv_e)
-    dls = np.einsum("ij,ij->i", hp_s, sinv_e)
-    # P' = P - (H P)^T S^-1 (H P)
-    a_t = np.column_stack(
-        [i11 * hp_t[:, 0] + i12 * hp_t[:, 1], i12 * hp_t[:, 0] + i22 * hp_t[:, 1]]
-    )
-    a_s = np.column_stack(
-        [i11 * hp_s[:, 0] + i12 * hp_s[:, 1], i12 * hp_s[:, 0] + i22 * hp_s[:, 1]]
-    )
-    child.theta[k] = th + dth + geo.dphi[k]
-    child.p_tt[k] = np.maximum(ptt - np.einsum("ij,ij->i", hp_t, a_t), 1e-14) + geo.var_dphi[k]
-    child.log_s[k] = ls + dls
-    child.p_ts[k] = pts - np.einsum("ij,ij->i", hp_t, a_s)
-    child.p_ss[k] = np.maximum(pss - np.einsum("ij,ij->i", hp_s, a_s), 0.0)
-
-
-def _kalman_heading(k: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:
-    """:func:`kalman` with the scale known exactly and no push: with ``h = s R(theta) d``
-    turned a quarter, ``S = b I + p_tt h h^T``, so with ``a = b + p_tt |h|^2`` (Sherman and
-    Morrison) ``det S = b a``, ``e^T S^-1 e = (|e|^2 - p_tt (h.e)^2 / a) / b``, the gain is
-    ``p_tt h^T / a`` and the new variance ``p_tt b / a``."""
-    if len(k) == 0:
-        return
-    k = everything(k, len(parent))  # type: ignore[assignment]  # a slice selects alike
-    th = parent.theta[k]
-    ptt = parent.p_tt[k]
-    s = geo.s[k]
-    c, sn = np.cos(th), np.sin(th)
-    dx, dy = geo.d[k, 0], geo.d[k, 1]
-    px = s * (c * dx - sn * dy)  # predicted displacement s R(theta) d
-    py = s * (sn * dx + c * dy)
-    ex = geo.delta[k, 0] - px
-    ey = geo.delta[k, 1] - py
-    h_e = px * ey - py * ex  # h . e with h = (-py, px)
-    b = geo.base_var[k]
-    a = b + ptt * (px * px + py * py)
-    maha = (ex * ex + ey * ey - ptt * h_e * h_e / a) / b
-    child.loglik[k] = -LOG_2PI - 0.5 * np.log(b * a) - 0.5 * maha
-    child.theta[k] = th + ptt * h_e / a + geo.dphi[k]
-    child.p_tt[k] = np.maximum(ptt * b / a, 1e-14) + geo.var_dphi[k]
-    # log s, p_ts (0) and p_ss (0) stay as the parent's (Child.start copied them).
-
-
-def orientation(
-    detected: np.ndarray, var_z: float, theta: np.ndarray, p_tt: np.ndarray, loglik: np.ndarray
-) -> None:
-    """A detected heading as one more measurement of ``theta`` (variance ``var_z``)."""
-    known = np.isfinite(theta)
-    if known.all():
-        err = wrap_angle(detected - theta)
-        var = p_tt + var_z
-        loglik += -0.5 * (math.log(2 * math.pi) + np.log(var) + err**2 / var)
-        gain = p_tt / var
-        theta += gain * err
-        p_tt *= 1 - gain
-        return
-    err = wrap_angle(detected[known] - theta[known])
-    var = p_tt[known] + var_z
-    loglik[known] += -0.5 * (math.log(2 * math.pi) + np.log(var) + err**2 / var)
-    gain = p_tt[known] / var
-    theta[known] = theta[known] + gain * err
-    p_tt[known] = p_tt[known] * (1 - gain)
-    # A heading learnt nowhere else comes from the detection itself.
-    unknown = ~known
-    theta[unknown] = detected[unknown]
-    p_tt[unknown] = var_z
+    return runs, where, local

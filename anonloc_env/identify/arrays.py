@@ -1,0 +1,85 @@
+"""Helpers on the identifier's flat arrays: fields shared by a whole batch, and arrays grouped by
+robot (every robot's items in one run, robots in order)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def shared(value: float, count: int, width: int = 0) -> np.ndarray:
+    """``count`` copies of ``value`` (``(count, width)`` if ``width``), read-only and taking no
+    memory (stride 0): a field that every track of a batch holds alike (a first leg's position
+    variance, a known scale, no carried motion). ``Tracks.take``, ``concat`` and ``gather`` keep
+    such a field shared, so large batches do not write it out."""
+    shape = (count, width) if width else (count,)
+    return np.broadcast_to(np.float64(value), shape)
+
+
+def is_shared(a: np.ndarray) -> bool:
+    """Whether ``a`` is a shared field (see :func:`shared`)."""
+    return a.ndim > 0 and a.strides[0] == 0 and len(a) > 0
+
+
+def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
+    """``a[index]`` (``count`` long); a shared field stays shared."""
+    if is_shared(a):
+        return np.broadcast_to(a[0], (count, *a.shape[1:]))
+    return a[index]
+
+
+def alike(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
+    """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
+    ``None`` if they do not."""
+    first = arrays[0]
+    if not all(is_shared(a) for a in arrays):
+        return None
+    if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
+        return None
+    return np.broadcast_to(first[0], (count, *first.shape[1:]))
+
+
+def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
+    """``index`` (increasing, unique), or a slice when it selects all ``n`` items (no copies)."""
+    return slice(None) if len(index) == n else index
+
+
+def group_starts(slot: np.ndarray) -> np.ndarray:
+    """Indices where each run of equal values of ``slot`` starts (``slot`` grouped)."""
+    if len(slot) == 0:
+        return np.zeros(0, dtype=np.int64)
+    new = np.empty(len(slot), dtype=bool)
+    new[0] = True
+    np.not_equal(slot[1:], slot[:-1], out=new[1:])
+    return np.flatnonzero(new)
+
+
+def group_sizes(slot: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Length of each run of ``slot`` that starts at ``starts`` (see :func:`group_starts`)."""
+    return np.diff(np.append(starts, len(slot)))
+
+
+def rank_in_group(slot: np.ndarray) -> np.ndarray:
+    """Position of each item within its run of equal ``slot`` values (``slot`` grouped)."""
+    starts = group_starts(slot)
+    return np.arange(len(slot)) - np.repeat(starts, group_sizes(slot, starts))
+
+
+def add_grouped(total: np.ndarray, slot: np.ndarray, logw: np.ndarray) -> None:
+    """``total[i] = logaddexp(total[i], logsumexp(logw[slot == i]))``, ``slot`` grouped."""
+    if len(slot) == 0:
+        return
+    starts = group_starts(slot)
+    top = np.maximum.reduceat(logw, starts)
+    shift = np.where(np.isfinite(top), top, 0.0)
+    sums = np.add.reduceat(np.exp(logw - np.repeat(shift, group_sizes(slot, starts))), starts)
+    which = slot[starts]
+    total[which] = np.logaddexp(total[which], shift + np.log(sums))
+
+
+def near_best(slot: np.ndarray, logw: np.ndarray, nats: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(keep, floor)``: the indices of the weights ``logw`` at most ``nats`` below the best of
+    their robot (``slot`` grouped; never -inf or nan), and each one's floor."""
+    starts = group_starts(slot)
+    best = np.maximum.reduceat(logw, starts)
+    floor = np.repeat(best, group_sizes(slot, starts)) - nats
+    return np.flatnonzero(logw >= floor), floor
