@@ -27,6 +27,7 @@ excitation would drive at the new picture (the target of :mod:`agents.imitation`
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -34,7 +35,7 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-from agents.conditions import Scenario
+from agents.conditions import ConditionRanges, Scenario, draw_scenario
 from agents.crew import Crew
 from agents.observation import CANDIDATES, policy_action_space, policy_observation_space
 from anonloc_env.config import EnvConfig
@@ -59,6 +60,9 @@ class AnonLocVecEnv(VecEnv):
         scenarios: one scenario (config, condition and budget) per copy instead of ``config``
             for all (training across conditions, :mod:`agents.conditions`); the number of
             robots may differ between copies. ``n_envs`` is then ignored.
+        redraw: with ``scenarios``: at the end of every episode of a copy, draw its next
+            scenario from these ranges (its number of robots kept), with a seed drawn from the
+            copy's env generator, so runs stay reproducible.
     """
 
     def __init__(
@@ -72,16 +76,27 @@ class AnonLocVecEnv(VecEnv):
         make_env: Callable[[EnvConfig], AnonLocEnv] | None = None,
         candidates: int = CANDIDATES,
         scenarios: Sequence[Scenario] | None = None,
+        redraw: ConditionRanges | None = None,
     ) -> None:
         if not isinstance(n_envs, (int, np.integer)) or isinstance(n_envs, bool) or n_envs < 1:
             raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
         build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
         self.config = config
         drawn = list(scenarios or [Scenario(config, condition, budget)] * int(n_envs))
-        self.crews = [
-            Crew(build(s.config), s.condition, s.budget, information_weight, reward, candidates)
-            for s in drawn
-        ]
+
+        def crew(scenario: Scenario) -> Crew:
+            return Crew(
+                build(scenario.config),
+                scenario.condition,
+                scenario.budget,
+                information_weight,
+                reward,
+                candidates,
+            )
+
+        self._crew = crew
+        self._redraw = redraw
+        self.crews = [crew(s) for s in drawn]
         sizes = [crew.n for crew in self.crews]
         self.starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         self.n_robots = config.n_robots
@@ -161,11 +176,22 @@ class AnonLocVecEnv(VecEnv):
                     }
                 self._returns[slots] = 0.0
                 self._lengths[slots] = 0
-                observation = crew.reset(None)
+                observation = self._next_episode(k)
             parts.append(observation)
             infos.extend(copy_infos)
         self._actions = None
         return _stack(parts), rewards, dones, infos
+
+    def _next_episode(self, k: int) -> dict[str, np.ndarray]:
+        """Copy ``k``'s next episode: the same scenario, or a new one drawn (``redraw``)."""
+        crew = self.crews[k]
+        if self._redraw is None:
+            return crew.reset(None)
+        rng = np.random.default_rng(crew.env.rng.integers(0, 2**63))
+        ranges = dataclasses.replace(self._redraw, robots=(crew.n,))
+        crew.env.close()
+        self.crews[k] = self._crew(draw_scenario(rng, ranges))
+        return self.crews[k].reset(int(rng.integers(0, 2**63)))
 
     def close(self) -> None:
         for crew in self.crews:

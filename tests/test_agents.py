@@ -328,3 +328,18 @@ def test_an_agent_of_the_older_layout_is_refused_by_name(tmp_path: Path) -> None
     with pytest.raises(ValueError, match="not a saved agent"):
         load_model(tmp_path / "junk.zip")
     assert json.loads(data_to_json({"a": 1}))["a"] == 1
+
+
+def test_redrawn_scenarios_keep_each_copys_robots_and_replay_from_the_seed() -> None:
+    from agents.conditions import ConditionRanges, training_scenarios
+
+    ranges = ConditionRanges(pictures=2)
+    runs = []
+    for _ in range(2):
+        scenarios = training_scenarios(2, seed=5, ranges=ranges)
+        venv = _seeded(AnonLocVecEnv(scenarios[0].config, scenarios=scenarios, redraw=ranges), 1)
+        runs.append((_rollout(venv, 9, seed=0), [c.config for c in venv.crews]))
+        assert [c.n for c in venv.crews] == [s.config.n_robots for s in scenarios]
+        assert [c.config for c in venv.crews] != [s.config for s in scenarios]  # redrawn
+    assert _same(runs[0][0], runs[1][0])
+    assert runs[0][1] == runs[1][1]
