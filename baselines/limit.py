@@ -30,7 +30,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special
+from scipy import optimize
 from scipy.stats import qmc
 
 from anonloc_env.config import EnvConfig
@@ -143,7 +143,7 @@ def nats_needed(n: int, fraction: float = 0.99, threshold: float = 0.99) -> floa
     open_each = -threshold * math.log(threshold) - doubt * math.log(doubt)
     open_each += doubt * math.log(n - 1)
     left_open = identified * open_each + (n - identified) * math.log(n)
-    return max(special.gammaln(n + 1) - left_open, 0.0) / n
+    return max(math.lgamma(n + 1) - left_open, 0.0) / n
 
 
 def displacement_capacity(
