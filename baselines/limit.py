@@ -98,7 +98,7 @@ def picture_limit(
         The :class:`PictureLimit`.
 
     Raises:
-        TypeError: ``config`` is not an :class:`~anonloc_env.config.EnvConfig`.
+        TypeError: ``config`` is not an ``anonloc_env.EnvConfig``.
         ValueError: ``condition``, ``budget``, ``fraction`` or ``threshold`` out of range.
     """
     _check(config, condition, budget, fraction, threshold)
