@@ -1,0 +1,49 @@
+"""The eight evaluation conditions of the learned agents (issue 17), defined once.
+
+Every condition is :func:`benchmarks.excitations.scenario`'s: N robots, one per square metre
+(arena side sqrt(N) m), the default camera (100 image units per metre) with 1 px of pixel noise
+and no detected headings, a picture every second, the default robot; each condition changes
+only what its name says. The evaluation script and :mod:`benchmarks.plot_agents` import them
+from here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from anonloc_env.config import EnvConfig
+from benchmarks.excitations import scenario
+
+#: The swarm deviation budget of the ``swarm`` conditions (a fraction of the robot's limits).
+SWARM_BUDGET = 0.2
+#: Misses and false positives (per picture) of the ``clutter`` conditions.
+CLUTTER = {"p_miss": 0.1, "false_positives": 3.0}
+
+
+def _camera(config: EnvConfig, **changes: Any) -> EnvConfig:
+    return dataclasses.replace(config, camera=dataclasses.replace(config.camera, **changes))
+
+
+def evaluation_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str, float]]:
+    """The conditions by name: ``(config, condition, budget)`` with ``condition`` ``"free"`` or
+    ``"swarm"`` (:class:`baselines.excitations.SwarmDuty` with deviation ``budget``).
+
+    Args:
+        pictures: episode length in pictures (sets ``max_cycles``), >= 1.
+
+    Raises:
+        ValueError: ``pictures`` < 1.
+    """
+    if not (isinstance(pictures, int) and pictures >= 1):
+        raise ValueError(f"pictures must be an integer >= 1, got {pictures!r}")
+    out: dict[str, tuple[EnvConfig, str, float]] = {}
+    for n in (10, 100, 1000):
+        out[f"free N={n}"] = (scenario(n, pictures), "free", SWARM_BUDGET)
+    for n in (10, 100):
+        out[f"swarm N={n}"] = (scenario(n, pictures), "swarm", SWARM_BUDGET)
+    for n in (20, 50):
+        out[f"clutter N={n}"] = (_camera(scenario(n, pictures), **CLUTTER), "free", SWARM_BUDGET)
+    headings = _camera(scenario(100, pictures), orientation=True)
+    out["headings N=100"] = (headings, "free", SWARM_BUDGET)
+    return out
