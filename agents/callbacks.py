@@ -1,11 +1,17 @@
-"""Training callbacks: what the logs show besides PPO's own figures, and a wall-clock budget."""
+"""Training callbacks: what the logs show besides PPO's own figures, a wall-clock budget,
+atomic checkpoints, a progress bar that shows the run's whole budget, and a CSV log that a
+resumed run appends to."""
 
 from __future__ import annotations
 
+import os
 import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.logger import CSVOutputFormat, Logger, make_output_format
 
 
 class WallClockBudget(BaseCallback):
@@ -46,3 +52,80 @@ class IdentificationLogger(BaseCallback):
         if self._correct:
             self.logger.record("identify/correct_at_end", float(np.mean(self._correct)))
             self._correct = []
+
+
+class AtomicCheckpoint(CheckpointCallback):
+    """:class:`CheckpointCallback` whose files appear whole: saved to a temporary file, then
+    moved into place (a kill mid-save leaves the previous checkpoints intact)."""
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq == 0:
+            from agents.train import save_atomic
+
+            path = Path(self._checkpoint_path(extension="zip"))
+            save_atomic(self.model, path)
+            if self.verbose >= 2:  # pragma: no cover - SB3's own messages
+                print(f"Saving model checkpoint to {path}")
+        return True
+
+
+class StepProgress(BaseCallback):
+    """A progress bar over the run's whole budget: ``done/total`` robot-steps (a resumed run
+    starts at its earlier steps) and the wall-clock budget of this call, if any."""
+
+    def __init__(self, total: int, already: int, minutes: float | None) -> None:
+        super().__init__()
+        self.total, self.already, self.minutes = total, already, minutes
+        self._bar: Any = None
+
+    def _on_training_start(self) -> None:
+        from tqdm.auto import tqdm
+
+        label = "robot-steps" + ("" if self.minutes is None else f" (<= {self.minutes:g} min)")
+        self._bar = tqdm(
+            total=self.total, initial=min(self.already, self.total), desc=label, unit="step"
+        )
+
+    def _on_step(self) -> bool:
+        if self._bar is not None:
+            self._bar.n = min(int(self.model.num_timesteps), self.total)
+            self._bar.refresh()
+        return True
+
+    def _on_training_end(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+class _AppendingCSV(CSVOutputFormat):
+    """SB3's CSV log, continuing an existing file: its header and rows are kept (an incomplete
+    last line, from a kill mid-write, is dropped)."""
+
+    def __init__(self, filename: str) -> None:
+        path = Path(filename)
+        text = path.read_text() if path.exists() else ""
+        complete = text[: text.rfind("\n") + 1]
+        if complete != text:  # replace, never truncate in place: a kill now loses nothing
+            tmp = path.with_name(f".{path.name}.tmp")
+            tmp.write_text(complete)
+            os.replace(tmp, path)
+        path.touch()
+        self.file = open(path, "r+")  # noqa: SIM115 - SB3 rewrites the header in place
+        self.file.seek(0, os.SEEK_END)
+        header = complete.split("\n", 1)[0]
+        self.keys = header.split(",") if header else []
+        self.separator = ","
+        self.quotechar = '"'
+
+
+def resumable_logger(folder: Path, *, keep: bool) -> Logger:
+    """TensorBoard and CSV logs in ``folder``; ``keep``: a resumed run keeps the earlier rows
+    of ``progress.csv`` (SB3's own CSV log opens it afresh)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    csv_path = folder / "progress.csv"
+    formats = [
+        make_output_format("tensorboard", str(folder)),
+        _AppendingCSV(str(csv_path)) if keep else CSVOutputFormat(str(csv_path)),
+    ]
+    return Logger(folder=str(folder), output_formats=formats)

@@ -5,17 +5,31 @@
 
 A run writes, under ``out/<run name>/``: ``config.json`` (this config and the scenario's full
 ``EnvConfig``), ``tb/`` (TensorBoard logs: PPO's losses, episode returns, and the share of
-robots identified), ``checkpoints/`` (``agent_<steps>.zip`` every ``checkpoint_every`` steps),
-and ``agent.zip`` (the final policy). :func:`resume` continues a run from its newest checkpoint,
-with its recorded config.
+robots identified), ``checkpoints/`` (``agent_<steps>_steps.zip`` every ``checkpoint_every``
+steps, and at the end or an interrupt), and ``agent.zip`` (the final policy). :func:`resume`
+continues a run from its newest checkpoint, with its recorded config.
+
+Nothing trained is lost: checkpoints and ``agent.zip`` are written to a temporary file and moved
+into place; Ctrl-C (``KeyboardInterrupt``) or SIGTERM saves a checkpoint and ``agent.zip`` of the
+steps done so far before :class:`Interrupted` is raised; :func:`resume` skips a damaged newest
+checkpoint for the previous good one (and says so), keeps ``tb/progress.csv``'s earlier rows, and
+trains up to the run's recorded total ``timesteps`` (or a new total the caller gives). A run
+folder is locked while it trains: a second process on it is refused.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
+import os
 import re
+import signal
+import threading
 import time
+import warnings
+import zipfile
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -194,75 +208,225 @@ def train(config: TrainConfig) -> TrainResult:
             f"run folder {directory} exists: choose another name, or continue it with resume"
         )
     directory.mkdir(parents=True)
-    _write_json(directory / "config.json", _config_record(config))
-    return _learn(config, directory, None)
+    with _RunLock(directory):
+        _write_json(directory / "config.json", _config_record(config))
+        return _learn(config, directory, None)
 
 
-def resume(directory: Path | str, timesteps: int | None = None) -> TrainResult:
-    """Continue the run in ``directory`` from its newest checkpoint, with its recorded config.
+class Interrupted(KeyboardInterrupt):
+    """Training was stopped by Ctrl-C or SIGTERM after saving what it had.
+
+    Attributes:
+        directory: the run folder (continue it with :func:`resume`).
+        checkpoint: the checkpoint just saved.
+        timesteps: robot-steps trained when it stopped.
+    """
+
+    def __init__(self, directory: Path, checkpoint: Path, timesteps: int) -> None:
+        super().__init__(f"training stopped at {timesteps} robot-steps; saved {checkpoint}")
+        self.directory = directory
+        self.checkpoint = checkpoint
+        self.timesteps = timesteps
+
+
+def resume(
+    directory: Path | str,
+    timesteps: int | None = None,
+    minutes: float | None = None,
+    *,
+    progress: bool | None = None,
+    notify: Callable[[str], None] | None = None,
+) -> TrainResult:
+    """Continue the run in ``directory`` from its newest good checkpoint, with its recorded config.
+
+    The budget rule: the run trains up to its recorded total ``timesteps`` unless ``timesteps``
+    gives a new total; ``minutes`` bounds this call's wall time (default: the recorded
+    ``minutes``, itself per call). A run already at its total trains no more.
 
     Args:
         directory: the run folder.
         timesteps: new total robot-steps (default: the recorded total).
+        minutes: this call's wall-clock budget (default: the recorded one).
+        progress: show a progress bar (default: as recorded).
+        notify: where to say that a damaged checkpoint was skipped (default: a warning).
 
     Raises:
-        FileNotFoundError: no run or no checkpoint there.
+        FileNotFoundError: no run or no usable checkpoint there.
+        ValueError: a bad new budget, or a config.json that is not a run's.
     """
     directory = Path(directory)
     recorded = _read_config(directory)
     if timesteps is not None:
         recorded["timesteps"] = timesteps
-    config = TrainConfig(**recorded)
-    return _learn(config, directory, latest_checkpoint(directory))
+    if minutes is not None:
+        recorded["minutes"] = minutes
+    if progress is not None:
+        recorded["progress"] = progress
+    try:
+        config = TrainConfig(**recorded)
+    except TypeError as error:
+        raise ValueError(f"{directory / 'config.json'} is not a run's config: {error}") from None
+    with _RunLock(directory):
+        return _learn(config, directory, latest_checkpoint(directory, notify=notify))
 
 
 def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> TrainResult:
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
-    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.callbacks import CallbackList
 
-    from agents.callbacks import IdentificationLogger, WallClockBudget
+    from agents.callbacks import (
+        AtomicCheckpoint,
+        IdentificationLogger,
+        StepProgress,
+        WallClockBudget,
+        resumable_logger,
+    )
 
     start = time.perf_counter()
     torch.set_num_threads(config.torch_threads)
     vec_env = make_vec_env(config)
-    if checkpoint is None:
-        model = build_model(config, vec_env)
-    else:
-        model = PPO.load(checkpoint, env=vec_env, device="cpu")
-    checkpoints = CheckpointCallback(
-        save_freq=max(config.checkpoint_every // vec_env.num_envs, 1),
-        save_path=str(directory / "checkpoints"),
-        name_prefix="agent",
-    )
-    model.set_logger(configure(str(directory / "tb"), ["tensorboard", "csv"]))
-    model.learn(
-        total_timesteps=max(config.timesteps - model.num_timesteps, 0),
-        callback=CallbackList(
-            [checkpoints, IdentificationLogger()]
-            + ([] if config.minutes is None else [WallClockBudget(config.minutes)])
-        ),
-        reset_num_timesteps=checkpoint is None,
-        progress_bar=config.progress,
-    )
-    agent = directory / "agent.zip"
-    tmp = directory / "agent.tmp.zip"
-    model.save(tmp)
-    tmp.replace(agent)
-    vec_env.close()
+    try:
+        if checkpoint is None:
+            model = build_model(config, vec_env)
+        else:
+            model = PPO.load(checkpoint, env=vec_env, device="cpu")
+        checkpoints = AtomicCheckpoint(
+            save_freq=max(config.checkpoint_every // vec_env.num_envs, 1),
+            save_path=str(directory / "checkpoints"),
+            name_prefix="agent",
+        )
+        model.set_logger(resumable_logger(directory / "tb", keep=checkpoint is not None))
+        already = int(model.num_timesteps)
+        callbacks = [checkpoints, IdentificationLogger()]
+        if config.minutes is not None:
+            callbacks.append(WallClockBudget(config.minutes))
+        if config.progress:
+            callbacks.append(StepProgress(config.timesteps, already, config.minutes))
+        try:
+            with _interrupt_on_sigterm():
+                model.learn(
+                    total_timesteps=max(config.timesteps - already, 0),
+                    callback=CallbackList(callbacks),
+                    reset_num_timesteps=checkpoint is None,
+                )
+        except KeyboardInterrupt:
+            saved = save_atomic(model, checkpoint_path(directory, int(model.num_timesteps)))
+            save_atomic(model, directory / "agent.zip")
+            raise Interrupted(directory, saved, int(model.num_timesteps)) from None
+        finally:
+            model.logger.close()
+        # The end is a checkpoint too: any finished run can be extended with resume.
+        save_atomic(model, checkpoint_path(directory, int(model.num_timesteps)))
+        agent = save_atomic(model, directory / "agent.zip")
+    finally:
+        vec_env.close()
     return TrainResult(directory, agent, int(model.num_timesteps), time.perf_counter() - start)
 
 
-def latest_checkpoint(directory: Path) -> Path:
-    """The newest checkpoint of a run folder."""
+def checkpoint_path(directory: Path, steps: int) -> Path:
+    """Where the checkpoint after ``steps`` robot-steps lives."""
+    return directory / "checkpoints" / f"agent_{steps}_steps.zip"
+
+
+def save_atomic(model: Any, path: Path) -> Path:
+    """Save ``model`` to ``path`` through a temporary file: a reader (or a kill mid-save) sees
+    the old file or the new one, never half of one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.zip")
+    try:
+        model.save(tmp)
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+    return path
+
+
+def latest_checkpoint(directory: Path, *, notify: Callable[[str], None] | None = None) -> Path:
+    """The newest readable checkpoint of a run folder; damaged newer ones are skipped, each
+    with a message to ``notify`` (default: a warning)."""
     found = sorted(
         (directory / "checkpoints").glob("agent_*_steps.zip"),
         key=lambda p: int(re.findall(r"\d+", p.stem)[-1]),
     )
     if not found:
         raise FileNotFoundError(f"no checkpoint in {directory / 'checkpoints'} to resume from")
-    return found[-1]
+    for newest in reversed(found):
+        problem = _zip_problem(newest)
+        if problem is None:
+            return newest
+        message = f"checkpoint {newest} is damaged ({problem}); trying the previous one"
+        if notify is None:
+            warnings.warn(message, stacklevel=2)
+        else:
+            notify(message)
+    raise FileNotFoundError(f"no readable checkpoint in {directory / 'checkpoints'}")
+
+
+def _zip_problem(path: Path) -> str | None:
+    """What is wrong with a saved model file, or None."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            bad = archive.testzip()
+            if bad is not None:
+                return f"member {bad} is corrupt"
+            if "data" not in archive.namelist():
+                return "not a saved model"
+    except (zipfile.BadZipFile, OSError, EOFError) as error:
+        return str(error) or type(error).__name__
+    return None
+
+
+@contextlib.contextmanager
+def _interrupt_on_sigterm() -> Iterator[None]:
+    """SIGTERM (a scheduler ending the job, ``kill``) stops training as Ctrl-C does."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+class _RunLock:
+    """An exclusive lock on a run folder (``.lock``): two processes never train one run."""
+
+    def __init__(self, directory: Path) -> None:
+        self.path = directory / ".lock"
+        self._fd: int | None = None
+
+    def __enter__(self) -> _RunLock:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            import fcntl
+
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:  # pragma: no cover - Windows: no advisory locks
+            pass
+        except BlockingIOError:
+            os.close(fd)
+            raise RunBusyError(
+                f"run folder {self.path.parent} is being trained by another process; "
+                "wait for it to finish"
+            ) from None
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
+class RunBusyError(RuntimeError):
+    """Another process trains the same run folder."""
 
 
 def _config_record(config: TrainConfig) -> dict[str, Any]:
@@ -274,7 +438,12 @@ def _read_config(directory: Path) -> dict[str, Any]:
     path = directory / "config.json"
     if not path.exists():
         raise FileNotFoundError(f"{path} not found: nothing to resume")
-    return dict(json.loads(path.read_text())["train"])
+    try:
+        return dict(json.loads(path.read_text())["train"])
+    except (ValueError, KeyError, TypeError) as error:
+        raise ValueError(
+            f"{path} is not a run's config ({type(error).__name__}: {error})"
+        ) from None
 
 
 def _write_json(path: Path, data: Any) -> None:

@@ -417,8 +417,13 @@ def frame(
 @app.command()
 def train(
     timesteps: Annotated[
-        int, typer.Option(min=1, help="Robot-steps of experience in all (slots x steps).")
-    ] = 200_000,
+        int | None,
+        typer.Option(
+            min=1,
+            help="Robot-steps of experience in all (slots x steps; default 200000). With "
+            "--resume: a new total (default: the run's own).",
+        ),
+    ] = None,
     out: Annotated[Path, typer.Option(help="Folder of the runs.")] = Path("runs"),
     scenario: Annotated[
         str, typer.Option(help="A preset or a TOML/YAML scenario file.")
@@ -440,11 +445,18 @@ def train(
     ] = None,
     minutes: Annotated[
         float | None,
-        typer.Option(min=0.01, help="Wall-clock budget: stop and save after this many minutes."),
+        typer.Option(
+            min=0.01,
+            help="Wall-clock budget of this call: stop and save after this many minutes "
+            "(with --resume, default: the run's own).",
+        ),
     ] = None,
     resume: Annotated[
         Path | None,
-        typer.Option(help="Continue this run folder from its newest checkpoint instead."),
+        typer.Option(
+            help="Continue this run folder from its newest good checkpoint, up to the run's "
+            "own total robot-steps (or a new --timesteps)."
+        ),
     ] = None,
     set_: Sets = None,
     quiet: Quiet = False,
@@ -452,7 +464,8 @@ def train(
 ) -> None:
     """Train one excitation policy shared by every robot (SB3 PPO); see docs/agents.md.
 
-    Writes OUT/<run>/config.json, tb/ (TensorBoard), checkpoints/ and agent.zip. Needs the rl
+    Writes OUT/<run>/config.json, tb/ (TensorBoard), checkpoints/ and agent.zip. Ctrl-C or
+    SIGTERM saves a checkpoint and agent.zip first; continue with --resume. Needs the rl
     extra: pip install torch==2.13.0 && pip install 'anonloc[rl]'.
     """
     with _command(verbose):

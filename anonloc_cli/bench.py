@@ -77,12 +77,15 @@ class Entry:
         policy: a policy name (see ``baselines.policy_names()``).
         excitation: the motion between pictures (None: the policy's own).
         kwargs: more arguments of the policy (``agent``: ``path``); plain JSON values.
+        identity: what else decides the results and is not in ``kwargs`` (``agent``: a hash
+            of the agent file, so a rewritten file at the same path runs again); None: nothing.
     """
 
     label: str
     policy: str
     excitation: str | None = None
     kwargs: dict[str, Any] = field(default_factory=dict)
+    identity: str | None = None
 
 
 def units(
@@ -107,6 +110,7 @@ def units(
                 "pictures": pictures,
                 "label": entry.label,
                 "kwargs": entry.kwargs,
+                **({} if entry.identity is None else {"identity": entry.identity}),
             },
         )
         for entry in entries

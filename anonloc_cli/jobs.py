@@ -7,10 +7,12 @@ same command always makes the same keys and a re-run skips what its store alread
 :func:`run_units` runs the units missing from a store, appending each result the moment it
 arrives. On the process backend (``concurrent.futures.ProcessPoolExecutor``, one worker per core)
 a worker that dies (killed, out of memory, a crash in native code) breaks the pool: the units it
-held run again in a fresh pool, each at most ``retries`` more times. On the Ray backend
-(``--backend ray``) the same units run as Ray tasks with ``max_retries`` doing the same. Nothing
-else differs between the two. An exception raised by a unit itself is a bug, not bad luck: it
-stops the command (the units already finished stay in the store).
+held run again in a fresh pool, each at most ``retries`` more times. Workers are started with
+``spawn``, never forked: the main process may already run threads (torch starts its own when a
+command loads an agent), and a fork of a threaded process can deadlock in the child. On the Ray
+backend (``--backend ray``) the same units run as Ray tasks with ``max_retries`` doing the
+same. Nothing else differs between the two. An exception raised by a unit itself is a bug, not
+bad luck: it stops the command (the units already finished stay in the store).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import hashlib
 import importlib
 import json
 import logging
+import multiprocessing
 import os
 import signal
 import socket
@@ -38,6 +41,11 @@ from anonloc_cli.store import Store
 log = logging.getLogger(__name__)
 
 BACKENDS = ("process", "ray")
+
+#: How pool workers start: a fresh interpreter, so no lock held by a parent's thread (torch's
+#: OpenMP pool, a logging handler) is copied into a worker locked forever. Spawned workers are
+#: the main process's own children, so ``PR_SET_PDEATHSIG`` and the parent check still hold.
+START_METHOD = "spawn"
 
 #: kind -> module whose ``run_unit(unit) -> dict`` executes it (imported in the worker).
 KINDS: dict[str, str] = {
@@ -214,8 +222,8 @@ Finished = Callable[[Unit, dict[str, Any]], None]
 def _worker_init(parent: int) -> None:
     """Workers leave Ctrl-C to the main process, which stops them, and die with it.
 
-    A forked worker holds the store's file (and its lock) open: if it outlived a ``kill -9`` of
-    the main process, a rerun could not resume until it was killed by hand. On Linux the kernel
+    A worker that outlived a ``kill -9`` of the main process would keep running (and, forked,
+    keep the store's file and lock open) until killed by hand. On Linux the kernel
     sends it SIGKILL when its parent dies (``PR_SET_PDEATHSIG``); a parent that died before this
     ran is caught by its pid.
     """
@@ -243,6 +251,7 @@ def _run_pool(todo: list[Unit], workers: int, retries: int, finished: Finished) 
         source, window = (suspects, 1) if suspects else (queue, workers)
         pool = ProcessPoolExecutor(
             max_workers=min(window, len(source)),
+            mp_context=multiprocessing.get_context(START_METHOD),
             initializer=_worker_init,
             initargs=(os.getpid(),),
         )
@@ -295,11 +304,19 @@ def _run_pool(todo: list[Unit], workers: int, retries: int, finished: Finished) 
 
 def _stop(pool: ProcessPoolExecutor) -> None:
     """Cancel what is queued and end the workers now (Ctrl-C or an error)."""
-    pool.shutdown(wait=False, cancel_futures=True)
-    # The executor has no public way to stop running work; its workers ignore SIGINT.
-    for process in list((getattr(pool, "_processes", None) or {}).values()):
+    # The executor has no public way to stop running work; its workers ignore SIGINT. Read
+    # them before shutdown() forgets them, end them, and only then let the executor wind down
+    # (a worker stuck in native code must not keep the main process waiting at exit).
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
         if process.is_alive():
             process.terminate()
+    for process in processes:
+        process.join(timeout=2.0)
+        if process.is_alive():
+            process.kill()
+            process.join(timeout=2.0)
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _run_ray(

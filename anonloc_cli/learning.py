@@ -12,6 +12,7 @@ Evaluation seeds are ``0..N-1``; training env copies are seeded by 64-bit draws 
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,9 +34,13 @@ def _rl_modules() -> Any:
     return train
 
 
+#: ``train``'s total robot-steps when none are given (a new run).
+DEFAULT_TIMESTEPS = 200_000
+
+
 def train(
     *,
-    timesteps: int,
+    timesteps: int | None,
     out: Path,
     scenario: str,
     sets: Sequence[str],
@@ -49,27 +54,27 @@ def train(
     resume: Path | None,
     quiet: bool,
 ) -> int:
-    """Train (or resume) a run; the exit status."""
-    from anonloc_cli import scenarios
-
+    """Train (or resume) a run; the exit status (130 when Ctrl-C or SIGTERM stopped it, after
+    saving a checkpoint and the agent)."""
     module = _rl_modules()
-    if resume is not None:
-        try:
-            result = module.resume(resume, timesteps)
-        except (FileNotFoundError, ValueError) as error:
-            raise InputError(str(error)) from None
-    else:
-        resolved = scenarios.resolve(scenario, sets)
-        spec = dict(resolved.spec)
-        preset = spec.pop("preset", "default")
-        try:
-            config = module.TrainConfig(
-                preset=preset,
-                overrides=spec,
+    try:
+        if resume is not None:
+            result = module.resume(
+                resume,
+                timesteps,
+                minutes,
+                progress=not quiet,
+                notify=lambda message: echo(f"Warning: {message}", err=True),
+            )
+        else:
+            config = _new_config(
+                module,
+                scenario=scenario,
+                sets=sets,
                 condition=condition,
                 budget=budget,
                 extractor=extractor,
-                timesteps=timesteps,
+                timesteps=DEFAULT_TIMESTEPS if timesteps is None else timesteps,
                 n_envs=n_envs,
                 seed=seed,
                 out=str(out),
@@ -78,13 +83,34 @@ def train(
                 progress=not quiet,
             )
             result = module.train(config)
-        except (FileExistsError, ValueError, TypeError) as error:
-            raise InputError(str(error)) from None
+    except module.Interrupted as stopped:
+        echo(
+            f"\nInterrupted at {stopped.timesteps} robot-steps; saved {stopped.checkpoint} and "
+            f"{stopped.directory / 'agent.zip'}. Continue with: anonloc train --resume "
+            f"{stopped.directory}",
+            err=True,
+        )
+        return 130
+    except (FileNotFoundError, FileExistsError, ValueError, module.RunBusyError) as error:
+        raise InputError(str(error)) from None
     echo(
         f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "
         f"agent: {result.agent}; logs: tensorboard --logdir {result.directory / 'tb'}"
     )
     return 0
+
+
+def _new_config(module: Any, *, scenario: str, sets: Sequence[str], **options: Any) -> Any:
+    """The :class:`agents.train.TrainConfig` of a new run (checked before any work)."""
+    from anonloc_cli import scenarios
+
+    resolved = scenarios.resolve(scenario, sets)
+    spec = dict(resolved.spec)
+    preset = spec.pop("preset", "default")
+    try:
+        return module.TrainConfig(preset=preset, overrides=spec, **options)
+    except (ValueError, TypeError) as error:
+        raise InputError(str(error)) from None
 
 
 def agent_scenario(agent: Path) -> Scenario:
@@ -95,8 +121,29 @@ def agent_scenario(agent: Path) -> Scenario:
     record = folder / "config.json"
     if not record.is_file():
         raise InputError(f"{record} not found: pass --scenario (the agent's own is not recorded)")
-    train = json.loads(record.read_text())["train"]
-    return scenarios.build(folder.name, {"preset": train["preset"], **train["overrides"]})
+    try:
+        train = json.loads(record.read_text())["train"]
+        spec = {"preset": train["preset"], **train["overrides"]}
+    except (ValueError, KeyError, TypeError) as error:  # empty, truncated or edited
+        raise InputError(
+            f"{record} is not a run's config ({type(error).__name__}: {error}); "
+            "pass --scenario to evaluate the agent on a scenario of your choice"
+        ) from None
+    return scenarios.build(folder.name, spec)
+
+
+def agent_file(agent: Path) -> Path:
+    """The agent file of ``agent`` (an ``agent.zip`` or its run folder)."""
+    return agent / "agent.zip" if agent.is_dir() else agent
+
+
+def file_hash(path: Path) -> str:
+    """SHA-256 of a file's bytes, first 20 hex digits: the agent's identity in stored keys."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()[:20]
 
 
 def evaluate(
@@ -123,7 +170,10 @@ def evaluate(
             resolved = scenarios.build(resolved.name, spec)
     else:
         resolved = scenarios.resolve(scenario, sets)
-    entries = [bench.Entry("agent", "agent", None, {"path": str(path)})]
+    # Stored episodes are keyed on the file's contents: a retrained agent.zip runs again.
+    entries = [
+        bench.Entry("agent", "agent", None, {"path": str(path)}, file_hash(agent_file(path)))
+    ]
     for name in against:
         teams.check_excitation(name)
         entries.append(bench.Entry(name, "bayes", name))

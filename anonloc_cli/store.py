@@ -59,6 +59,9 @@ class Store:
 
     def __exit__(self, *exc: object) -> None:
         if self._fd is not None:
+            if os.fstat(self._fd).st_size == 0:  # nothing finished: leave no empty store behind
+                with contextlib.suppress(FileNotFoundError):
+                    self.path.unlink()
             os.close(self._fd)  # also releases the lock
             self._fd = None
 

@@ -47,3 +47,42 @@ def read_csv(path: Path) -> list[dict[str, str]]:
     """A CSV file's rows as dicts of strings."""
     with open(path, newline="") as file:
         return list(csv.DictReader(file))
+
+
+#: The ``anonloc`` console script installed beside this interpreter (what users run).
+SCRIPT = Path(sys.executable).with_name("anonloc")
+
+
+def script_env() -> dict[str, str]:
+    """The environment of a console-script run: this checkout first on the path."""
+    return {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+        "SDL_VIDEODRIVER": "dummy",
+    }
+
+
+def run_script(*args: Any, timeout: float = 180, **kwargs: Any) -> subprocess.CompletedProcess[str]:
+    """Run the real ``anonloc ARGS`` console script in a subprocess (as a user does)."""
+    return subprocess.run(
+        [str(SCRIPT), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=script_env(),
+        cwd=kwargs.pop("cwd", ROOT),
+        timeout=timeout,
+        **kwargs,
+    )
+
+
+def start_script(*args: Any, **kwargs: Any) -> subprocess.Popen[str]:
+    """Start ``anonloc ARGS`` in the background (for signal tests); the caller waits for it."""
+    return subprocess.Popen(
+        [str(SCRIPT), *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=script_env(),
+        cwd=kwargs.pop("cwd", ROOT),
+        **kwargs,
+    )

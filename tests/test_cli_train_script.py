@@ -1,0 +1,135 @@
+"""``anonloc train`` as users run it (the console script): nothing trained is ever lost.
+
+Ctrl-C and SIGTERM save a checkpoint and the agent; ``--resume`` continues from them, keeps the
+earlier rows of ``tb/progress.csv``, trains to the run's own total (or a new ``--timesteps``),
+skips a damaged newest checkpoint, and ``eval`` notices that ``agent.zip`` changed.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from tests.cli_helpers import run_script, start_script
+
+TINY = [
+    "--set", "n_robots=3", "--set", "arena_size=[2.0, 2.0]", "--set", "max_cycles=20",
+    "--set", "picture_interval=0.25", "--set", "camera.orientation=false",
+]  # fmt: skip
+#: One PPO rollout: 128 decisions x 3 robots x 1 copy.
+ROLLOUT = 128 * 3
+
+
+def csv_rows(run: Path) -> list[str]:
+    """The data rows of the run's ``tb/progress.csv``."""
+    path = run / "tb" / "progress.csv"
+    return path.read_text().splitlines()[1:] if path.exists() else []
+
+
+def checkpoints(run: Path) -> list[Path]:
+    return sorted((run / "checkpoints").glob("agent_*_steps.zip"))
+
+
+def stop_after_two_rollouts(out: Path, name: str, signum: int) -> subprocess.CompletedProcess[str]:
+    """Start a long run, and send ``signum`` once it has logged two rollouts."""
+    run = out / name
+    process = start_script(
+        "train", "--timesteps", "1000000", "--n-envs", "1", "--out", out, "--name", name,
+        "--quiet", *TINY,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and len(csv_rows(run)) < 2:
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.1)
+        process.send_signal(signum)
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_stopped_run_saves_and_resume_continues_keeping_the_log(
+    tmp_path: Path, signum: int
+) -> None:
+    run = tmp_path / "r"
+    stopped = stop_after_two_rollouts(tmp_path, "r", signum)
+    assert stopped.returncode == 130, stopped.stderr
+    assert "Traceback" not in stopped.stderr
+    saved = checkpoints(run)
+    assert saved, "no checkpoint was saved on the interrupt"
+    assert (run / "agent.zip").is_file()
+    assert f"--resume {run}" in stopped.stderr
+    earlier = csv_rows(run)
+    steps = int(saved[-1].stem.split("_")[1])
+    assert steps >= 2 * ROLLOUT
+
+    resumed = run_script(
+        "train", "--resume", run, "--timesteps", steps + ROLLOUT, "--quiet", timeout=120
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"trained {steps + ROLLOUT} robot-steps" in resumed.stdout
+    after = csv_rows(run)
+    assert after[: len(earlier)] == earlier, "resume lost the earlier rows of progress.csv"
+    assert len(after) == len(earlier) + 1
+
+
+def test_resume_keeps_the_runs_own_budget_and_shows_it(tmp_path: Path) -> None:
+    first = run_script(
+        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "b",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    assert f"trained {ROLLOUT} robot-steps" in first.stdout
+    again = run_script("train", "--resume", tmp_path / "b", "--quiet", timeout=90)
+    assert again.returncode == 0, again.stderr
+    assert f"trained {ROLLOUT} robot-steps" in again.stdout  # at its total: no more steps
+    extended = run_script("train", "--resume", tmp_path / "b", "--timesteps", 2 * ROLLOUT)
+    assert extended.returncode == 0, extended.stderr
+    assert f"trained {2 * ROLLOUT} robot-steps" in extended.stdout
+    assert f"{2 * ROLLOUT}/{2 * ROLLOUT}" in extended.stderr  # the bar counts the whole run
+    assert f"{ROLLOUT}/{2 * ROLLOUT}" in extended.stderr  # and starts at the earlier steps
+
+
+def test_resume_skips_a_truncated_checkpoint_and_says_so(tmp_path: Path) -> None:
+    first = run_script(
+        "train", "--timesteps", 2 * ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "t",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    run = tmp_path / "t"
+    good = checkpoints(run)[-1]
+    damaged = run / "checkpoints" / f"agent_{3 * ROLLOUT}_steps.zip"
+    damaged.write_bytes(good.read_bytes()[:1000])  # a kill in the middle of a save
+    resumed = run_script(
+        "train", "--resume", run, "--timesteps", 3 * ROLLOUT, "--quiet", timeout=120
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"checkpoint {damaged} is damaged" in resumed.stderr
+    assert f"trained {3 * ROLLOUT} robot-steps" in resumed.stdout
+
+
+def test_eval_runs_again_when_agent_zip_changed(tmp_path: Path) -> None:
+    first = run_script(
+        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "e",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    run, out = tmp_path / "e", tmp_path / "e.csv"
+    args = ["eval", "--agent", run, "--seeds", "1", "--out", out, "--workers", "1", "--quiet"]
+    assert run_script(*args, timeout=120).returncode == 0
+    more = run_script("train", "--resume", run, "--timesteps", 2 * ROLLOUT, "--quiet")
+    assert more.returncode == 0, more.stderr
+    again = run_script(*args, timeout=120)
+    assert again.returncode == 0, again.stderr
+    assert "(1 episodes executed, 1 reused)" not in again.stdout
+    assert "(1 episodes executed, 0 reused)" in again.stdout
