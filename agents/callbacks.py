@@ -92,10 +92,92 @@ class StepProgress(BaseCallback):
             self._bar.refresh()
         return True
 
+    def show(self, **figures: str) -> None:
+        """Show ``figures`` (name -> text) beside the bar until the next call."""
+        if self._bar is not None:
+            self._bar.set_postfix(figures, refresh=True)
+
     def _on_training_end(self) -> None:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+class ProgressEvaluation(BaseCallback):
+    """At every ``every`` steps: plays the current policy on fixed evaluation seeds and logs
+    ``eval/pictures_to_99`` (censored mean), ``eval/identified_at_end`` (share of the robots
+    identified at the episodes' last picture) and, with ``progress``, shows them beside the bar
+    with the mean training return. :meth:`against_random` ends a run with the same measure for
+    random motion.
+
+    Args:
+        scenario: ``(config, condition, budget)`` evaluated on.
+        seeds: the evaluation seeds.
+        every: vectorized steps between two evaluations.
+        progress: the progress bar to show the figures on, or None.
+    """
+
+    def __init__(
+        self,
+        scenario: tuple[Any, str, float],
+        seeds: range,
+        every: int,
+        progress: StepProgress | None = None,
+    ) -> None:
+        super().__init__()
+        self.scenario = scenario
+        self.seeds = seeds
+        self.every = every
+        self.progress = progress
+        config = scenario[0]
+        self.pictures = int(config.max_cycles * config.dt / config.schedule.picture_interval)
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.every == 0:
+            self.evaluate()
+        return True
+
+    def evaluate(self) -> float:
+        """Play the current policy; log and show the figures; returns pictures to 99 %."""
+        from agents.evaluation import censored_pictures, play
+        from agents.policy import LearnedExcitation
+
+        config, condition, budget = self.scenario
+        results = play(
+            config, condition, budget, lambda: LearnedExcitation(self.model), self.seeds,
+            self.pictures,
+        )  # fmt: skip
+        pictures = censored_pictures(results, self.pictures)
+        last = [max(rec.picture for rec in r.records) for r in results]
+        end = [
+            rec.correct for r, k in zip(results, last, strict=True) for rec in r.records
+            if rec.picture == k
+        ]  # fmt: skip
+        identified = float(np.mean(end)) if end else 0.0
+        self.logger.record("eval/pictures_to_99", pictures)
+        self.logger.record("eval/identified_at_end", identified)
+        if self.progress is not None:
+            returns = [info["r"] for info in self.model.ep_info_buffer]
+            self.progress.show(
+                ret=f"{np.mean(returns):.2f}" if returns else "-",
+                identified=f"{100 * identified:.0f}%",
+                pictures99=f"{pictures:.2f}",
+            )
+        return pictures
+
+    def against_random(self, model: Any) -> tuple[float, float]:
+        """Pictures to 99 % of ``model`` and of random motion on the evaluation seeds."""
+        from agents.evaluation import censored_pictures, play
+        from baselines.excitations import make_excitation
+
+        self.model = model
+        mine = self.evaluate()
+        config, condition, budget = self.scenario
+        results = play(
+            config, condition, budget, lambda: make_excitation("random"), self.seeds,
+            self.pictures,
+        )  # fmt: skip
+        return mine, censored_pictures(results, self.pictures)
 
 
 class _AppendingCSV(CSVOutputFormat):

@@ -41,7 +41,9 @@ from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
 from anonloc_env.presets import config_to_dict, make_config
 
-EXTRACTOR_NAMES = ("deepsets", "attention", "flat")
+#: ``condition`` values: one scenario on free motion or swarm duty, or scenarios drawn across
+#: conditions (:mod:`agents.conditions`) for a general agent.
+TRAIN_CONDITIONS = (*CONDITIONS, "mixed")
 
 
 @dataclass(frozen=True)
@@ -53,8 +55,10 @@ class TrainConfig:
     overrides: dict[str, Any] = field(default_factory=dict)
     """Keyword overrides of the preset (as ``anonloc_env.make_config`` takes them)."""
     condition: str = "free"
-    """``free`` (the action is the command) or ``swarm`` (a bounded deviation from a shared
-    command stream)."""
+    """``free`` (the chosen candidate is the command), ``swarm`` (a bounded deviation from a
+    shared command stream), or ``mixed``: every copy draws its scenario from
+    :class:`agents.conditions.ConditionRanges` and draws a new one (its N kept) at the end of
+    every episode (the preset and overrides are then not used)."""
     budget: float = 0.2
     """On swarm duty: the largest deviation, as a fraction of ``v_max`` and ``omega_max``."""
     information_weight: float = 1.0
@@ -64,8 +68,20 @@ class TrainConfig:
     or ``information`` (nats gained since the previous picture); see :class:`agents.crew.Crew`."""
     energy_weight: float | None = None
     """Reward lost per metre of wheel travel; None keeps the scenario's ``reward.energy_weight``."""
-    extractor: str = "deepsets"
-    """Features extractor over the rows: ``deepsets``, ``attention`` or ``flat``."""
+    hidden: int = 64
+    """Width of the candidate scorer's encodings (:class:`agents.features.CandidateScorer`)."""
+    imitation: int = 0
+    """Robot-decisions of ``greedy`` to imitate before PPO (:mod:`agents.imitation`); 0: PPO
+    starts from a random network."""
+    imitation_epochs: int = 15
+    """Passes over the demonstrations."""
+    temperature: float = 10.0
+    """The imitated logits are divided by this before PPO starts: ``greedy``'s choice alone
+    makes identical robots too alike (measured in ``docs/agents.md``), a softer start keeps
+    the robots' draws diverse."""
+    eval_episodes: int = 4
+    """Episodes on fixed seeds at every checkpoint (pictures to 99 % in the progress display
+    and the logs) and, at the end, for the comparison against random motion; 0: none."""
     timesteps: int = 200_000
     """Total robot-decisions of experience (slots x decisions; one decision per picture)."""
     n_envs: int = 4
@@ -92,15 +108,21 @@ class TrainConfig:
     out: str = "runs"
     """Folder of the runs."""
     name: str | None = None
-    """Run name; default ``<preset>-<condition>-ppo-<extractor>-s<seed>-<time>``."""
+    """Run name; default ``<preset>-<condition>-ppo-s<seed>-<time>``."""
     torch_threads: int = 1
     """Threads torch may use (1 is fastest for these small networks on a shared CPU)."""
     progress: bool = False
     """Show a progress bar."""
 
     def __post_init__(self) -> None:
-        check_choice("condition", self.condition, CONDITIONS)
-        check_choice("extractor", self.extractor, EXTRACTOR_NAMES)
+        check_choice("condition", self.condition, TRAIN_CONDITIONS)
+        if self.condition == "mixed" and self.overrides:
+            raise ValueError("condition 'mixed' draws its scenarios: overrides would be ignored")
+        check_number("hidden", self.hidden, 1, 4096, integer=True)
+        check_number("imitation", self.imitation, 0, 10**9, integer=True)
+        check_number("imitation_epochs", self.imitation_epochs, 1, 10_000, integer=True)
+        check_number("temperature", self.temperature, 0.0, 1e6, low_open=True)
+        check_number("eval_episodes", self.eval_episodes, 0, 10_000, integer=True)
         check_choice("reward", self.reward, REWARDS)
         if self.energy_weight is not None:
             check_number("energy_weight", self.energy_weight, 0.0)
@@ -136,7 +158,7 @@ class TrainConfig:
         if self.name is not None:
             return self.name
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        return f"{self.preset}-{self.condition}-ppo-{self.extractor}-s{self.seed}-{stamp}"
+        return f"{self.preset}-{self.condition}-ppo-s{self.seed}-{stamp}"
 
     def to_json(self) -> dict[str, Any]:
         """The config as JSON values."""
@@ -152,22 +174,25 @@ class TrainResult:
         agent: the saved final policy (``agent.zip``).
         timesteps: robot-steps trained (a resumed run counts its earlier steps).
         seconds: wall time of this call.
+        comparison: pictures to 99 % (censored mean) of the trained agent and of random motion
+            on the progress display's evaluation seeds, or None (``eval_episodes`` 0).
     """
 
     directory: Path
     agent: Path
     timesteps: int
     seconds: float
+    comparison: tuple[float, float] | None = None
 
 
 def build_model(config: TrainConfig, vec_env: Any) -> Any:
-    """A fresh PPO on ``vec_env`` with the config's extractor and hyperparameters."""
+    """A fresh PPO on ``vec_env`` with the candidate scorer and the config's hyperparameters."""
     from stable_baselines3 import PPO
 
-    from agents.features import EXTRACTORS
+    from agents.features import CandidatePolicy
 
     return PPO(
-        "MultiInputPolicy",
+        CandidatePolicy,
         vec_env,
         learning_rate=config.learning_rate,
         n_steps=config.n_steps,
@@ -177,23 +202,49 @@ def build_model(config: TrainConfig, vec_env: Any) -> Any:
         ent_coef=config.ent_coef,
         seed=config.seed,
         device="cpu",
-        policy_kwargs={"features_extractor_class": EXTRACTORS[config.extractor]},
+        policy_kwargs={"hidden": config.hidden},
         verbose=0,
     )
 
 
 def make_vec_env(config: TrainConfig) -> Any:
     """The config's vectorized env (copies x robots slots)."""
+    from agents.conditions import ConditionRanges, training_scenarios
     from agents.vec import AnonLocVecEnv
 
+    common = {"information_weight": config.information_weight, "reward": config.reward}
+    if config.condition == "mixed":
+        ranges = ConditionRanges()
+        if config.energy_weight is not None:
+            ranges = dataclasses.replace(ranges, energy_weight=config.energy_weight)
+        scenarios = training_scenarios(config.n_envs, config.seed, ranges)
+        return AnonLocVecEnv(scenarios[0].config, scenarios=scenarios, redraw=ranges, **common)
     return AnonLocVecEnv(
         config.env_config(),
         n_envs=config.n_envs,
         condition=config.condition,
         budget=config.budget,
-        information_weight=config.information_weight,
-        reward=config.reward,
+        **common,
     )
+
+
+def evaluation_scenario(config: TrainConfig) -> tuple[EnvConfig, str, float]:
+    """What the progress display evaluates on: the run's scenario, or for ``mixed`` 10 robots
+    at one per square metre, 1 px of noise, no headings, free motion, 20 pictures."""
+    if config.condition != "mixed":
+        return config.env_config(), config.condition, config.budget
+    side = 10**0.5
+    scenario = make_config(
+        n_robots=10,
+        arena_size=(side, side),
+        camera={"pixel_noise": 1.0, "orientation": False},
+        max_cycles=401,
+    )
+    return scenario, "free", config.budget
+
+
+#: The progress display's evaluation seeds start here (never a training or benchmark seed).
+PROGRESS_SEEDS = 900_000
 
 
 def train(config: TrainConfig) -> TrainResult:
@@ -278,6 +329,7 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     from agents.callbacks import (
         AtomicCheckpoint,
         IdentificationLogger,
+        ProgressEvaluation,
         StepProgress,
         WallClockBudget,
         resumable_logger,
@@ -289,6 +341,8 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     try:
         if checkpoint is None:
             model = build_model(config, vec_env)
+            if config.imitation:
+                start_from_greedy(model, vec_env, config)
         else:
             model = PPO.load(checkpoint, env=vec_env, device="cpu")
         checkpoints = AtomicCheckpoint(
@@ -301,8 +355,19 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
         callbacks = [checkpoints, IdentificationLogger()]
         if config.minutes is not None:
             callbacks.append(WallClockBudget(config.minutes))
+        progress = None
         if config.progress:
-            callbacks.append(StepProgress(config.timesteps, already, config.minutes))
+            progress = StepProgress(config.timesteps, already, config.minutes)
+            callbacks.append(progress)
+        evaluation = None
+        if config.eval_episodes:
+            evaluation = ProgressEvaluation(
+                evaluation_scenario(config),
+                range(PROGRESS_SEEDS, PROGRESS_SEEDS + config.eval_episodes),
+                every=max(config.checkpoint_every // vec_env.num_envs, 1),
+                progress=progress,
+            )
+            callbacks.append(evaluation)
         try:
             with _interrupt_on_sigterm():
                 model.learn(
@@ -319,9 +384,29 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
         # The end is a checkpoint too: any finished run can be extended with resume.
         save_atomic(model, checkpoint_path(directory, int(model.num_timesteps)))
         agent = save_atomic(model, directory / "agent.zip")
+        comparison = None if evaluation is None else evaluation.against_random(model)
     finally:
         vec_env.close()
-    return TrainResult(directory, agent, int(model.num_timesteps), time.perf_counter() - start)
+    return TrainResult(
+        directory, agent, int(model.num_timesteps), time.perf_counter() - start, comparison
+    )
+
+
+def start_from_greedy(model: Any, vec_env: Any, config: TrainConfig) -> list[float]:
+    """Imitate ``config.imitation`` robot-decisions of ``greedy`` (:mod:`agents.imitation`),
+    then soften the logits by ``config.temperature``; returns the agreement after each epoch."""
+    import torch
+
+    from agents.imitation import collect_demonstrations, imitate
+
+    demos = collect_demonstrations(vec_env, config.imitation, config.seed, config.gamma)
+    agreement = imitate(model.policy, demos, epochs=config.imitation_epochs, seed=config.seed)
+    last = model.policy.scorer.score[-1]
+    with torch.no_grad():
+        last.weight /= config.temperature
+        last.bias /= config.temperature
+    vec_env.seed(config.seed)  # PPO's own episodes start from the run's seed again
+    return agreement
 
 
 def checkpoint_path(directory: Path, steps: int) -> Path:

@@ -430,14 +430,18 @@ def train(
     ] = "default",
     condition: Annotated[
         str,
-        typer.Option(help="free (the action is the command) or swarm (a bounded deviation)."),
+        typer.Option(
+            help="free (the chosen candidate is the command), swarm (a bounded deviation), or "
+            "mixed (scenarios drawn across conditions: a general agent; --scenario unused)."
+        ),
     ] = "free",
     budget: Annotated[
         float, typer.Option(help="On swarm duty: the deviation's share of v_max and omega_max.")
     ] = 0.2,
-    extractor: Annotated[
-        str, typer.Option(help="Features over the rows: deepsets, attention or flat.")
-    ] = "deepsets",
+    imitation: Annotated[
+        int,
+        typer.Option(min=0, help="Robot-decisions of greedy to imitate before PPO (0: none)."),
+    ] = 0,
     n_envs: Annotated[int, typer.Option(min=1, help="Env copies (slots = copies x robots).")] = 4,
     seed: Annotated[int, typer.Option(min=0, help="Seeds PPO, torch and every env copy.")] = 0,
     name: Annotated[
@@ -478,7 +482,7 @@ def train(
             sets=set_ or [],
             condition=condition,
             budget=budget,
-            extractor=extractor,
+            imitation=imitation,
             n_envs=n_envs,
             seed=seed,
             name=name,
@@ -491,7 +495,13 @@ def train(
 
 @app.command(name="eval")
 def evaluate(
-    agent: Annotated[Path, typer.Option(help="A saved agent: agent.zip or its run folder.")],
+    agent: Annotated[
+        Path,
+        typer.Option(
+            help="A saved agent: agent.zip, its run folder, or 'bundled' (the agent shipped "
+            "with anonloc; its scenario defaults to 'default')."
+        ),
+    ],
     seeds: Annotated[
         int, typer.Option(min=1, help="Episodes (seeds 0..N-1; training never uses them).")
     ],

@@ -46,7 +46,7 @@ def train(
     sets: Sequence[str],
     condition: str,
     budget: float,
-    extractor: str,
+    imitation: int,
     n_envs: int,
     seed: int,
     name: str | None,
@@ -73,7 +73,7 @@ def train(
                 sets=sets,
                 condition=condition,
                 budget=budget,
-                extractor=extractor,
+                imitation=imitation,
                 timesteps=DEFAULT_TIMESTEPS if timesteps is None else timesteps,
                 n_envs=n_envs,
                 seed=seed,
@@ -97,6 +97,13 @@ def train(
         f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "
         f"agent: {result.agent}; logs: tensorboard --logdir {result.directory / 'tb'}"
     )
+    if result.comparison is not None:
+        mine, random = result.comparison
+        change = 100.0 * (random - mine) / random if random else 0.0
+        echo(
+            f"pictures to 99 % on the evaluation seeds: this agent {mine:.2f}, random motion "
+            f"{random:.2f} ({change:+.0f} % fewer pictures than random)"
+        )
     return 0
 
 
@@ -132,6 +139,18 @@ def agent_scenario(agent: Path) -> Scenario:
     return scenarios.build(folder.name, spec)
 
 
+#: ``--agent bundled``: the agent that ships with the package.
+BUNDLED_NAME = "bundled"
+
+
+def bundled_agent() -> Path:
+    """The bundled agent's file (needs the rl extra)."""
+    _rl_modules()  # says which extra to install
+    from agents.policy import BUNDLED
+
+    return BUNDLED
+
+
 def agent_file(agent: Path) -> Path:
     """The agent file of ``agent`` (an ``agent.zip`` or its run folder)."""
     return agent / "agent.zip" if agent.is_dir() else agent
@@ -160,6 +179,9 @@ def evaluate(
     """Evaluate ``agent`` and the ``against`` excitations; the exit status."""
     from anonloc_cli import bench, scenarios, teams
 
+    if str(agent) == BUNDLED_NAME:
+        agent = bundled_agent()
+        scenario = "default" if scenario is None else scenario
     path = agent.resolve()
     if not (path.is_file() or (path / "agent.zip").is_file()):
         raise InputError(f"--agent: no saved agent at {agent} (an agent.zip or its run folder)")

@@ -63,7 +63,7 @@ def test_eval_refuses_a_missing_agent_before_any_work(tmp_path: Path) -> None:
 
 
 def test_train_refuses_a_bad_option_before_any_work(tmp_path: Path) -> None:
-    result = invoke("train", "--extractor", "transformer", "--out", tmp_path, *TINY)
+    result = invoke("train", "--condition", "wander", "--out", tmp_path, *TINY)
     assert result.exit_code == 2
-    assert "extractor must be one of" in result.output
+    assert "condition must be one of" in result.output
     assert not list(tmp_path.iterdir())

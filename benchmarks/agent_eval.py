@@ -1,0 +1,121 @@
+"""The learned agent against random, ``distinct`` and ``greedy`` on the conditions of issue 17.
+
+Every robot runs the ``bayes`` identifier (decisions at belief 0.99) and one excitation; the
+evaluation seeds (from ``--first-seed``, default 100000) are never used in training (a training
+run seeds its env copies with 64-bit draws of ``SeedSequence(seed)`` and draws its scenarios
+from their own generator). For each condition and excitation it reports, over all episodes:
+
+* pictures to 99 %: the censored mean (an episode that never gets there counts at its last
+  picture, ``--pictures``), with a 95 % bootstrap interval;
+* the share of episodes that reach 99 %;
+* energy to 99 %: mean wheel travel per robot until that picture (censored the same way), m;
+* confident decisions wrong: decisions (belief >= 0.99) on a row that is not the robot's, over
+  all decisions of all robots at all pictures;
+* the limits of :mod:`baselines.limit` for the condition.
+
+Usage::
+
+    python -m benchmarks.agent_eval --agent bundled --json results/agents.json
+    python -m benchmarks.agent_eval --agent runs/x/agent.zip --conditions "free N=10" --episodes 40
+
+(run from the repository's root). The conditions are
+:func:`benchmarks.agent_conditions.evaluation_conditions` (one robot per square metre,
+1 px of noise, no headings unless said, a picture every second).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from agents.evaluation import censored, play
+from baselines.excitations import EXCITATIONS, Excitation
+from baselines.limit import picture_limit
+from baselines.runner import EpisodeResult
+from baselines.scoring import bootstrap_mean, pictures_to_identify
+from benchmarks.agent_conditions import evaluation_conditions
+
+BASELINES = ("random", "distinct", "greedy")
+#: Episodes per condition by default (fewer where N is large).
+EPISODES = {10: 40, 20: 40, 50: 30, 100: 20, 1000: 5}
+
+
+def score(results: list[EpisodeResult], pictures: int) -> dict[str, float]:
+    """The module's figures over ``results`` (censored at ``pictures``)."""
+    firsts, energies = zip(*(censored(r, pictures) for r in results), strict=True)
+    decided = sum(rec.estimate >= 0 for r in results for rec in r.records)
+    wrong = sum(rec.estimate >= 0 and not rec.correct for r in results for rec in r.records)
+    reached = sum(pictures_to_identify(r)[0] is not None for r in results)
+    mean = bootstrap_mean(firsts)
+    spent = bootstrap_mean(energies)
+    return {
+        "pictures": mean.mean,
+        "low": mean.low,
+        "high": mean.high,
+        "reached": reached,
+        "episodes": len(results),
+        "energy": spent.mean,
+        "energy_low": spent.low,
+        "energy_high": spent.high,
+        "wrong": wrong / max(decided, 1),
+        "decisions": decided,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--agent", default="bundled", help="a saved agent, or 'bundled'")
+    parser.add_argument("--conditions", nargs="+", default=None, help="default: all")
+    parser.add_argument("--excitations", nargs="+", default=["agent", *BASELINES])
+    parser.add_argument("--episodes", type=int, default=None, help="default: by N (EPISODES)")
+    parser.add_argument("--pictures", type=int, default=30, help="pictures per episode")
+    parser.add_argument("--first-seed", type=int, default=100_000)
+    parser.add_argument("--json", type=Path, default=None, help="write the rows here")
+    args = parser.parse_args()
+    from agents.policy import LearnedExcitation, load_model
+
+    model = load_model(args.agent) if "agent" in args.excitations else None
+    makers: dict[str, Callable[[], Excitation]] = {k: EXCITATIONS[k] for k in BASELINES}
+    makers["agent"] = lambda: LearnedExcitation(model)
+    conditions = evaluation_conditions()
+    names = args.conditions or list(conditions)
+    rows = []
+    print(
+        "| condition | excitation | pictures to 99 % | reached | energy (m) | wrong | limit |"
+        "\n|---|---|---|---|---|---|---|"
+    )
+    for name in names:
+        config, condition, budget = conditions[name]
+        limit = picture_limit(config, condition, budget)
+        episodes = args.episodes or EPISODES.get(config.n_robots, 20)
+        seeds = range(args.first_seed, args.first_seed + episodes)
+        for excitation in args.excitations:
+            start = time.perf_counter()
+            results = play(config, condition, budget, makers[excitation], seeds, args.pictures)
+            row = {
+                "condition": name,
+                "excitation": excitation,
+                **score(results, args.pictures),
+                "limit_information": limit.information,
+                "limit_union": limit.union,
+                "seconds": time.perf_counter() - start,
+            }
+            rows.append(row)
+            print(
+                f"| {name} | {excitation} | {row['pictures']:.2f} [{row['low']:.2f}, "
+                f"{row['high']:.2f}] | {row['reached']}/{row['episodes']} | {row['energy']:.2f} "
+                f"| {100 * row['wrong']:.2f} % | {limit.information:.2f} / {limit.union:.2f} |",
+                flush=True,
+            )
+            if args.json:
+                args.json.parent.mkdir(parents=True, exist_ok=True)
+                tmp = args.json.with_suffix(".tmp")
+                tmp.write_text(json.dumps(rows, indent=1))
+                tmp.replace(args.json)
+
+
+if __name__ == "__main__":
+    main()
