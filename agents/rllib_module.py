@@ -11,7 +11,7 @@ returns the candidates' logits, the inputs of RLlib's categorical distribution o
 candidates, and no weight depends on N, the camera or the clutter (see :mod:`agents.features`).
 
 One pass of the scorer gives both heads. The training forward pass keeps the value under
-``Columns.EMBEDDINGS``, and :meth:`CandidateRLModule.compute_values` returns it as it is when PPO
+``Columns.EMBEDDINGS``, and ``CandidateRLModule.compute_values`` returns it as it is when PPO
 hands those embeddings back (RLlib's shared-encoder convention), so the learner runs the
 network once per batch.
 
