@@ -358,3 +358,29 @@ def test_the_rllib_module_trains_two_iterations_and_acts_through_baselines_make(
         actions = {a: np.zeros(2, np.float32) for a in env.agents}
         observations, *_ = env.step({**actions, "robot_0": action})
     assert np.abs(np.array(moves[20:])).max() > 0.0  # it drives a candidate after a picture
+
+
+def test_train_rllib_saves_to_a_relative_folder(
+    local_ray: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``checkpoint_dir="runs/rllib"`` (relative, as the docs write it) is saved under the
+    working directory and converts with export_agent (Ray alone fails on a relative path)."""
+    from agents.policy import load_model
+    from agents.rllib import (
+        PPOSettings,
+        export_agent,
+        make_ppo_config,
+        train_rllib,
+        trained_module,
+    )
+    from agents.rllib_module import CandidateRLModule
+
+    monkeypatch.chdir(tmp_path)
+    settings = PPOSettings(train_batch_size=6, minibatch_size=6, num_epochs=1, hidden=8)
+    metrics = train_rllib(make_ppo_config(LONG, settings, seed=1), 1, "runs/rllib")
+    assert [m.iteration for m in metrics] == [1]
+    assert (tmp_path / "runs" / "rllib" / "learner_group" / "learner" / "rl_module").is_dir()
+    assert isinstance(trained_module("runs/rllib"), CandidateRLModule)
+    agent = export_agent("runs/rllib", "runs/rllib/agent.zip")
+    assert (tmp_path / agent).is_file()
+    assert load_model(tmp_path / agent).policy.hidden == 8
