@@ -7,12 +7,17 @@ controller). RLlib's new API stack (RLModule, Learner, EnvRunner) is used throug
 
 Choices, checked against Ray 2.60:
 
-* **Flat observations.** RLlib's default encoders accept a 1-D ``Box`` but reject a ``Dict``
-  ("No default encoder config for obs space=Dict(...)"), so the env hands out the concatenated
-  observation (``observation="flat"``: the same numbers as the SB3 dict, in the layout of
-  :class:`agents.features.FlatExtractor`). Concatenating the R robots' batched arrays once per
-  step is cheaper than RLlib's ``FlattenObservations`` connector, which flattens every agent's
-  dict separately in Python, and the learner then sees exactly what the env runner saw.
+* **The same agent as SB3's.** The module is :class:`agents.rllib_module.CandidateRLModule`,
+  whose network is :class:`agents.features.CandidateScorer`, the one of the SB3 policy
+  :class:`agents.features.CandidatePolicy`: each robot scores its ``C`` candidate commands and
+  draws one (``Discrete(C)``); the weights depend on neither N nor the camera.
+  :func:`export_agent` turns a trained module into an SB3 agent zip that
+  ``baselines.make("agent", env, path=...)`` and ``anonloc eval --agent`` load.
+* **Flat observations.** RLlib's connectors batch a 1-D ``Box`` without Python work per agent,
+  so the env hands out the concatenated observation (``observation="flat"``: the same numbers
+  as the SB3 dict), which the module splits back with :func:`agents.pettingzoo.unflatten`.
+  Concatenating the R robots' batched arrays once per step is cheaper than RLlib's
+  ``FlattenObservations`` connector, which flattens every agent's dict separately in Python.
 * **Rendering.** ``ParallelPettingZooEnv.render`` calls ``render(self.render_mode)``;
   ``BeliefParallelEnv.render`` accepts that argument. Training never renders.
 * **Local sampling.** ``num_env_runners=0`` samples in the driver process (one env); raise it
@@ -21,11 +26,12 @@ Choices, checked against Ray 2.60:
 Example::
 
     import ray
-    from agents.rllib import make_ppo_config, train_rllib
+    from agents.rllib import export_agent, make_ppo_config, train_rllib
     from anonloc_env import make_config
 
     ray.init(num_cpus=2, include_dashboard=False)
-    metrics = train_rllib(make_ppo_config(make_config(n_robots=10)), iterations=20)
+    metrics = train_rllib(make_ppo_config(make_config(n_robots=10)), 20, "runs/rllib")
+    export_agent("runs/rllib", "runs/rllib/agent.zip")  # baselines.make("agent", path=...)
 
 Needs the ``ray`` and ``rl`` extras (``ray[rllib]`` and torch).
 """
@@ -36,6 +42,7 @@ import importlib
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from anonloc_env.config import EnvConfig
@@ -109,7 +116,7 @@ class PPOSettings:
         lambda_: GAE lambda, in [0, 1].
         clip_param: PPO ratio clip, > 0.
         entropy_coeff: entropy bonus, >= 0.
-        hidden: sizes of the hidden layers of the policy and of the (separate) value network.
+        hidden: width of the scorer's encodings (``CandidateScorer(hidden)``), >= 1.
         num_env_runners: Ray workers that sample (0: the driver samples), >= 0.
         rollout_fragment_length: env steps per env-runner sample call (``"auto"`` or >= 1).
     """
@@ -122,7 +129,7 @@ class PPOSettings:
     lambda_: float = 0.95
     clip_param: float = 0.2
     entropy_coeff: float = 0.0
-    hidden: tuple[int, ...] = (64, 64)
+    hidden: int = 64
     num_env_runners: int = 0
     rollout_fragment_length: int | str = "auto"
 
@@ -147,12 +154,7 @@ class PPOSettings:
                 raise ValueError(f"{name} must be in [0, 1], got {value!r}")
         if not (isinstance(self.entropy_coeff, (int, float)) and 0 <= self.entropy_coeff < 1e9):
             raise ValueError(f"entropy_coeff must be >= 0 and finite, got {self.entropy_coeff!r}")
-        if not self.hidden or any(
-            not isinstance(h, int) or isinstance(h, bool) or h < 1 for h in self.hidden
-        ):
-            raise ValueError(
-                f"hidden must be a non-empty tuple of integers >= 1, got {self.hidden!r}"
-            )
+        _check_int("hidden", self.hidden, 1)
         if self.rollout_fragment_length != "auto":
             _check_int("rollout_fragment_length", self.rollout_fragment_length, 1)
 
@@ -171,7 +173,8 @@ def make_ppo_config(
     information_weight: float = 1.0,
     seed: int | None = 0,
 ) -> Any:
-    """An RLlib ``PPOConfig`` (new API stack) training one shared module for every robot.
+    """An RLlib ``PPOConfig`` (new API stack) training one shared
+    :class:`~agents.rllib_module.CandidateRLModule` for every robot.
 
     Args:
         config: the scenario.
@@ -190,12 +193,12 @@ def make_ppo_config(
     settings = settings if settings is not None else PPOSettings()
     _rllib()
     from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
     from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
     register()
-    model = DefaultModelConfig(fcnet_hiddens=list(settings.hidden), fcnet_activation="tanh")
+    from agents.rllib_module import CandidateRLModule
+
     ppo = (
         PPOConfig()
         .api_stack(enable_rl_module_and_learner=True, enable_env_runner_and_connector_v2=True)
@@ -217,7 +220,11 @@ def make_ppo_config(
         .multi_agent(policies={MODULE_ID}, policy_mapping_fn=_map_to_shared)
         .rl_module(
             rl_module_spec=MultiRLModuleSpec(
-                rl_module_specs={MODULE_ID: RLModuleSpec(model_config=model)}
+                rl_module_specs={
+                    MODULE_ID: RLModuleSpec(
+                        module_class=CandidateRLModule, model_config={"hidden": settings.hidden}
+                    )
+                }
             )
         )
         .training(
@@ -318,7 +325,8 @@ def train_rllib(
     Args:
         ppo_config: from :func:`make_ppo_config` (or a ``PPOConfig`` built on it).
         iterations: training iterations, >= 1.
-        checkpoint_dir: if given, the trained algorithm is saved there (``Algorithm.save_to_path``).
+        checkpoint_dir: if given, the trained algorithm is saved there (``Algorithm.save_to_path``;
+            a relative path is taken from the working directory). :func:`export_agent` reads it.
         num_cpus: CPUs of the local Ray instance (default: all).
         torch_threads: torch threads of this process, which samples (with
             ``num_env_runners=0``) and learns (``num_learners=0``); ``None`` leaves torch's
@@ -342,7 +350,91 @@ def train_rllib(
     try:
         metrics = train_iterations(algorithm, iterations, env_config.n_robots)
         if checkpoint_dir is not None:
-            algorithm.save_to_path(checkpoint_dir)
+            # Ray reads a relative path as a URI without a scheme and fails: make it absolute.
+            algorithm.save_to_path(str(Path(checkpoint_dir).resolve()))
     finally:
         algorithm.stop()
     return metrics
+
+
+def trained_module(source: Any) -> Any:
+    """The shared :class:`~agents.rllib_module.CandidateRLModule` of ``source``: an RLlib
+    ``Algorithm`` from :func:`make_ppo_config`, such a module itself, or the folder
+    :func:`train_rllib` saved the algorithm to (``checkpoint_dir``).
+
+    Raises:
+        FileNotFoundError: ``source`` is a path without a saved module.
+        TypeError: ``source`` is none of these, or its module is not a ``CandidateRLModule``.
+    """
+    _rllib()
+    from agents.rllib_module import CandidateRLModule
+
+    module = source
+    if isinstance(source, (str, Path)):
+        from ray.rllib.core.rl_module.rl_module import RLModule
+
+        folder = Path(source).resolve() / "learner_group" / "learner" / "rl_module" / MODULE_ID
+        if not folder.is_dir():
+            raise FileNotFoundError(
+                f"no RLlib module {MODULE_ID!r} saved under {source} (expected {folder}): pass "
+                "the checkpoint_dir of train_rllib"
+            )
+        module = RLModule.from_checkpoint(str(folder))
+    elif hasattr(source, "get_module"):
+        module = source.get_module(MODULE_ID)
+    if not isinstance(module, CandidateRLModule):
+        raise TypeError(
+            "source must be an RLlib Algorithm from make_ppo_config, its CandidateRLModule, or "
+            f"the checkpoint_dir of train_rllib; got {type(module).__name__}"
+        )
+    return module
+
+
+def export_agent(source: Any, path: str | Path) -> Path:
+    """Save the trained RLlib module of ``source`` as an SB3 agent zip, loadable by
+    ``agents.policy.load_model``, ``baselines.make("agent", env, path=path)`` and
+    ``anonloc eval --agent path`` (pass ``condition="swarm"`` to ``baselines.make`` for a module
+    trained on swarm duty: the zip records no condition).
+
+    The zip holds an SB3 ``PPO`` whose policy is :class:`agents.features.CandidatePolicy` with
+    the module's scorer weights copied unchanged (both are ``CandidateScorer``), so it scores
+    every observation exactly as the RLlib module does. Only the weights carry over: PPO's
+    hyperparameters in the zip are SB3's defaults.
+
+    Args:
+        source: see :func:`trained_module` (an Algorithm, its module, or a checkpoint folder).
+        path: the zip to write (must end in ``.zip``; its folder is created). Written to a
+            temporary file first, then moved into place.
+
+    Returns:
+        The path written.
+    """
+    target = Path(path)
+    if target.suffix != ".zip":
+        raise ValueError(f"path must name a .zip file, got {str(path)!r}")
+    module = trained_module(source)
+    from stable_baselines3 import PPO
+
+    from agents.features import CandidatePolicy
+    from agents.vec import AnonLocVecEnv
+    from anonloc_env.presets import make_config
+
+    # The spaces depend on the number of candidates only: any small scenario builds the policy.
+    env = AnonLocVecEnv(make_config(n_robots=2), candidates=module.candidates)
+    try:
+        model = PPO(
+            CandidatePolicy,
+            env,
+            policy_kwargs={"hidden": module.hidden},
+            device="cpu",
+        )
+        policy = model.policy
+        assert isinstance(policy, CandidatePolicy)
+        policy.scorer.load_state_dict(module.scorer.state_dict())
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(target.stem + ".tmp.zip")
+        model.save(tmp)
+        tmp.replace(target)
+    finally:
+        env.close()
+    return target
