@@ -31,7 +31,7 @@ from agents.observation import (
 )
 from baselines.active import CandidateSet, GreedyIdentification, GreedySettings
 from baselines.localizers import Localizer
-from baselines.observations import Step
+from baselines.steps import Step
 
 
 class CandidateChooser(GreedyIdentification):

@@ -24,8 +24,8 @@ from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import energy
 from baselines.excitations import Excitation, SwarmDuty
 from baselines.localizers import BayesLocalizer
-from baselines.observations import Step
 from baselines.policies import Team
+from baselines.steps import Step
 
 CONDITIONS = ("free", "swarm")
 REWARDS = ("log_belief", "information")

@@ -31,8 +31,8 @@ from baselines.localizers import (
     Motion3Localizer,
     MotionLocalizer,
 )
-from baselines.observations import Step
 from baselines.policies import BaselinePolicy, Policy, Team
+from baselines.steps import Step
 
 __all__ = [
     "POLICIES",

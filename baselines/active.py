@@ -50,7 +50,7 @@ import numpy as np
 
 from anonloc_env.identify import ring_loglik
 from baselines.excitations import BackOff, DistinctSettings, check_command_box
-from baselines.observations import Step
+from baselines.steps import Step
 
 if TYPE_CHECKING:
     from baselines.localizers import Localizer
@@ -141,7 +141,7 @@ class Hypotheses:
 
 
 @dataclass(frozen=True)
-class Geometry:
+class PredictionGeometry:
     """What the prediction needs besides the hypotheses (image units, seconds).
 
     Attributes:
@@ -184,7 +184,11 @@ class CandidateSet:
 
 
 def expected_entropy(
-    hyp: Hypotheses, own: np.ndarray, others: np.ndarray, geo: Geometry, ring_samples: int = 8
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geo: PredictionGeometry,
+    ring_samples: int = 8,
 ) -> np.ndarray:
     """``(R, C)`` expected entropy (nats) of each robot's belief after the next picture.
 
@@ -280,7 +284,7 @@ class GreedyIdentification(BackOff):
         self.following = False
         self._reset_backoff()
         self._previous: np.ndarray | None = None
-        self._pending: tuple[Hypotheses, Geometry, float] | None = None
+        self._pending: tuple[Hypotheses, PredictionGeometry, float] | None = None
         self.last_entropy = np.zeros(self.n)
         """``(R,)`` expected entropy of the command chosen at the newest picture (nats)."""
 
@@ -299,7 +303,7 @@ class GreedyIdentification(BackOff):
             self._previous = rows
             return
         hyp = self._hypotheses(belief, rows, step, model.scale_bounds[1], model)
-        geo = Geometry(
+        geo = PredictionGeometry(
             scale=model.scale_bounds[1],
             pixel_var=max(model.pixel_noise, 1e-3) ** 2,
             scale_spread=model.scale_spread,

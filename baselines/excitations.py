@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from anonloc_env._checks import did_you_mean
-from baselines.observations import Step
+from baselines.steps import Step
 
 if TYPE_CHECKING:
     from baselines.localizers import Localizer
@@ -87,7 +87,7 @@ class Excitation:
         """The commands held during the coming control step.
 
         Args:
-            step: what the robots observed at this step (:class:`baselines.observations.Step`):
+            step: what the robots observed at this step (:class:`baselines.steps.Step`):
                 ``new_picture``, the picture's ``rows`` ``(n, 3)`` (at a new picture),
                 ``odometry`` ``(R, 3)`` own ``(dx, dy, dphi)`` (m, rad) since that picture, and
                 ``bumper`` ``(R,)`` bool, a contact during the last step.

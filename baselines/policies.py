@@ -18,7 +18,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer
-from baselines.observations import OdometryLog, Step, read_step
+from baselines.steps import OdometryLog, Step, read_step
 
 
 @runtime_checkable

@@ -10,10 +10,10 @@ import pytest
 import anonloc_env
 import baselines
 from baselines.active import (
-    Geometry,
     GreedyIdentification,
     GreedySettings,
     Hypotheses,
+    PredictionGeometry,
     expected_entropy,
     unicycle,
 )
@@ -96,7 +96,7 @@ def _two_hypotheses(known: bool) -> Hypotheses:
     )
 
 
-GEO = Geometry(
+GEO = PredictionGeometry(
     scale=100.0, pixel_var=1.0, scale_spread=0.0, clutter=1e-5, p_detect=1.0, duration=1.0
 )
 
