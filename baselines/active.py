@@ -44,16 +44,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from anonloc_env.identify import ring_loglik
+from anonloc_env.identify import SensorModel, ring_loglik
 from baselines.excitations import BackOff, DistinctSettings, check_command_box
-from baselines.steps import Step
-
-if TYPE_CHECKING:
-    from baselines.localizers import Localizer
+from baselines.steps import BeliefView, Step
 
 
 @dataclass
@@ -257,11 +253,11 @@ class GreedyIdentification(BackOff):
     """Drive, at each picture, the candidate command that best separates the robot's hypotheses
     (see the module documentation for the model).
 
-    It needs the team's localizer to expose ``belief`` (``(R, n_rows)``) and ``model`` (an
-    ``anonloc_env.identify.SensorModel``), as :class:`baselines.localizers.BayesLocalizer` does,
-    and reads the robots' limits and picture interval from ``localizer.config``. Until the first
-    picture has been taken in, and for a robot with no row above ``floor``, it drives a random
-    candidate.
+    At every picture the team tells it what the robots believe (a
+    :class:`~baselines.steps.BeliefView`: the team localizer's ``belief`` and sensor ``model``,
+    the picture's ``rows``, the robots' limits, picture interval and turn cost from its
+    ``config``). Until the first picture has been taken in, and for a robot with no row above
+    ``floor``, it drives a random candidate.
 
     Args:
         settings: candidates, the others' model, hypotheses and energy weight.
@@ -293,11 +289,11 @@ class GreedyIdentification(BackOff):
         self.budget = budget
         self.following = True
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        belief = np.asarray(localizer.belief, dtype=np.float64)
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        belief = np.asarray(view.belief, dtype=np.float64)
         rows = step.rows
-        model = localizer.model
-        config = localizer.config
+        model = view.model
+        config = view.config
         if belief.shape[1] == 0 or len(rows) == 0:
             self._pending = None
             self._previous = rows
@@ -316,7 +312,7 @@ class GreedyIdentification(BackOff):
         self._previous = rows
 
     def _hypotheses(
-        self, belief: np.ndarray, rows: np.ndarray, step: Step, scale: float, model: object
+        self, belief: np.ndarray, rows: np.ndarray, step: Step, scale: float, model: SensorModel
     ) -> Hypotheses:
         st = self.settings
         k = min(st.hypotheses, belief.shape[1])
@@ -325,15 +321,13 @@ class GreedyIdentification(BackOff):
         weight = np.where(weight >= st.floor, weight, 0.0)
         weight /= np.maximum(weight.sum(axis=1, keepdims=True), 1e-300)
         pos = rows[order, :2]
-        if getattr(model, "orientation", False):
+        if model.orientation:
             theta = rows[order, 2]
-            sd = float(getattr(model, "orientation_noise", 0.0))
+            sd = float(model.orientation_noise)
             return Hypotheses(
                 weight, pos, theta, np.full(theta.shape, sd**2 + 1e-6), np.ones_like(theta, bool)
             )
-        return self._reconstructed(
-            weight, pos, step, scale, float(getattr(model, "pixel_noise", 1.0))
-        )
+        return self._reconstructed(weight, pos, step, scale, float(model.pixel_noise))
 
     def _reconstructed(
         self, weight: np.ndarray, pos: np.ndarray, step: Step, scale: float, pixel_noise: float

@@ -14,18 +14,13 @@ between all robots, each blending in a fraction ``jitter`` of its own draw.
 from __future__ import annotations
 
 import math
-import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from anonloc_env._checks import did_you_mean
-from baselines.steps import Step
-
-if TYPE_CHECKING:
-    from baselines.localizers import Localizer
+from baselines.steps import BeliefView, Step
 
 
 class Excitation:
@@ -73,10 +68,12 @@ class Excitation:
         """Called at every step, first, with the robots' observations (robot order, as the env
         gives them). The default does nothing."""
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
-        :meth:`commands`: ``localizer.estimate`` ``(R,)`` and ``localizer.belief`` ``(R, n)`` are
-        what the robots now believe. The default does nothing."""
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        """Called at every new picture, after the team's localizer has taken it in, before
+        :meth:`commands`: ``view`` (a :class:`~baselines.steps.BeliefView`) holds what the robots
+        now believe (``belief`` ``(R, n)``, ``estimate`` ``(R,)``), the localizer's sensor
+        ``model``, the picture's ``rows``, the ``interval`` just ended and the task's
+        ``config``. The default does nothing."""
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         """Called by :class:`SwarmDuty` before each :meth:`commands` when this excitation is the
@@ -367,8 +364,8 @@ class SwarmDuty(Excitation):
     def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
         self.deviation.on_observations(observations)
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        self.deviation.on_picture(step, localizer)
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        self.deviation.on_picture(step, view)
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v_shared, w_shared = self.shared.commands(step, dt)
@@ -485,49 +482,3 @@ class DistinctMotion(BackOff):
             self.v[redraw] = self._draw(*b.speed, redraw)
             self.w[redraw] = self._draw(-b.turn, b.turn, redraw)
         return self._apply_backoff(dt, self.v, self.w)
-
-
-def _greedy() -> Excitation:
-    from baselines.active import GreedyIdentification  # it builds on this module
-
-    return GreedyIdentification()
-
-
-EXCITATIONS: dict[str, Callable[[], Excitation]] = {
-    "still": Still,
-    "angular": Angular,
-    "linear": Linear,
-    "random": RandomMotion,
-    "swarm": SwarmMotion,
-    "distinct": DistinctMotion,
-    "greedy": _greedy,
-}
-"""Excitations by name (each value builds one). ``random`` is the paper's random motion
-(:class:`RandomMotion`, the excitation of the ``motion`` localizer); ``swarm`` is
-:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0); ``distinct`` is
-:class:`DistinctMotion`; ``greedy`` is :class:`baselines.active.GreedyIdentification`."""
-
-RENAMED = {"motion": "random"}
-"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
-``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
-
-
-def make_excitation(name: str) -> Excitation:
-    """A new excitation by name (a key of :data:`EXCITATIONS`, or an old one of :data:`RENAMED`).
-
-    Raises:
-        ValueError: an unknown name (the message lists the valid ones).
-    """
-    if name in RENAMED:
-        warnings.warn(
-            f"excitation {name!r} is renamed {RENAMED[name]!r}; the old name will be removed",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        name = RENAMED[name]
-    if name not in EXCITATIONS:
-        raise ValueError(
-            f"unknown excitation {name!r}{did_you_mean(name, EXCITATIONS)}; "
-            f"valid: {list(EXCITATIONS)}"
-        )
-    return EXCITATIONS[name]()

@@ -17,7 +17,8 @@ from baselines.active import (
     expected_entropy,
     unicycle,
 )
-from baselines.excitations import EXCITATIONS, DistinctMotion, SwarmDuty
+from baselines.excitations import DistinctMotion, SwarmDuty
+from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, PictureRecord, run_episode
 from baselines.scoring import bootstrap_mean, pictures_to_identify, summarize
 
