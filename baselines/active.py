@@ -35,8 +35,8 @@ duty tells it the shared command and the budget through
 backward), and the predicted displacements are those of ``shared + budget * deviation``, for
 the others too (they follow the same shared stream).
 
-After a bump the robot reverses out (:class:`baselines.excitations.BackOff`) and resumes its
-choice.
+After a bump the robot reverses out (a :class:`baselines.excitations.BackOff` it holds) and
+resumes its choice.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from anonloc_env.identify import SensorModel, ring_loglik
-from baselines.excitations import BackOff, DistinctSettings, check_command_box
+from baselines.excitations import BackOff, DistinctSettings, Excitation, check_command_box
 from baselines.steps import BeliefView, Step
 
 
@@ -249,7 +249,7 @@ def expected_entropy(
     return (hyp.weight[:, :, None] * entropy).sum(axis=1)
 
 
-class GreedyIdentification(BackOff):
+class GreedyIdentification(Excitation):
     """Drive, at each picture, the candidate command that best separates the robot's hypotheses
     (see the module documentation for the model).
 
@@ -266,7 +266,7 @@ class GreedyIdentification(BackOff):
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GreedySettings()
-        self.back = self.settings.back
+        self.backoff = BackOff(self.settings.back)
         self.base = (np.zeros(0), np.zeros(0))
         self.budget = 1.0
         self.following = False
@@ -278,7 +278,7 @@ class GreedyIdentification(BackOff):
         self.base = (np.zeros(self.n), np.zeros(self.n))
         self.budget = 1.0
         self.following = False
-        self._reset_backoff()
+        self.backoff.reset(rngs)
         self._previous: np.ndarray | None = None
         self._pending: tuple[Hypotheses, PredictionGeometry, float] | None = None
         self.last_entropy = np.zeros(self.n)
@@ -409,7 +409,10 @@ class GreedyIdentification(BackOff):
             self.drive(cset, (cset.entropy + self.settings.energy_weight * cset.spent).argmin(1))
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        self._start_backoff(step)
+        return self.backoff.commands(step, dt, lambda hit: self._own(step))
+
+    def _own(self, step: Step) -> tuple[np.ndarray, np.ndarray]:
+        """The command chosen at the newest picture (chosen now at a new one)."""
         if step.new_picture:
             self.choose()
-        return self._apply_backoff(dt, self.v, self.w)
+        return self.v, self.w
