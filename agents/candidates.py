@@ -30,8 +30,7 @@ from agents.observation import (
     empty_observation,
 )
 from baselines.active import CandidateSet, GreedyIdentification, GreedySettings
-from baselines.localizers import Localizer
-from baselines.observations import Step
+from baselines.steps import BeliefView, Step
 
 
 class CandidateChooser(GreedyIdentification):
@@ -61,12 +60,12 @@ class CandidateChooser(GreedyIdentification):
         self.observation = empty_observation(self.n, self.candidates)
         self.decided = False
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        super().on_picture(step, localizer)
-        model = localizer.model  # type: ignore[attr-defined]  # a bayes localizer's
-        config = localizer.config  # type: ignore[attr-defined]
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        super().on_picture(step, view)
+        model = view.model
+        config = view.config
         cset = self.score()
-        belief = np.asarray(localizer.belief, np.float64)
+        belief = np.asarray(view.belief, np.float64)
         context = np.zeros((self.n, CONTEXT_FEATURES - 1))
         context[:, :3] = belief_context(belief, None if cset is None else cset.now)
         context[:, 3] = math.log(len(step.rows) + 1.0) / math.log(1001.0)

@@ -19,13 +19,13 @@ import numpy as np
 
 from agents.candidates import CandidateChooser
 from agents.observation import CANDIDATES, information, true_belief, true_rows
-from anonloc_env.actions import to_actions, to_commands
+from anonloc_env.actions import to_commands
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import energy
 from baselines.excitations import Excitation, SwarmDuty
 from baselines.localizers import BayesLocalizer
-from baselines.observations import Step
 from baselines.policies import Team
+from baselines.steps import Step
 
 CONDITIONS = ("free", "swarm")
 REWARDS = ("log_belief", "information")
@@ -134,8 +134,7 @@ class Crew:
         while True:
             steps += 1
             v, w = self.team.excitation.commands(self._step, dt)
-            env_actions = to_actions(v, w, robot)
-            self.team.commanded(env_actions)
+            env_actions = self.team.command(v, w)
             observations, rewards, _, truncations, infos = self.env.step(
                 dict(zip(self.agents, env_actions, strict=True))
             )

@@ -1,5 +1,7 @@
 """A saved agent as an excitation, so it runs through the same teams, runner and tables as every
-baseline: ``baselines.make("agent", env)`` (the bundled agent) or ``path=`` a saved one.
+baseline: ``baselines.make("agent", env)`` (the bundled agent) or ``path=`` a saved one. The name
+``agent`` is registered with ``baselines`` through the entry point ``anonloc.policies`` (see
+:func:`team`), so ``baselines`` never imports this package.
 
 The policy as trained is the policy users get: at every picture each robot's candidates are
 scored by the network and one is drawn from the resulting categorical distribution with the
@@ -24,7 +26,10 @@ import numpy as np
 from agents.candidates import CandidateChooser
 from agents.crew import condition_excitation
 from agents.observation import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
+from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
+from baselines.localizers import BayesLocalizer
+from baselines.policies import Team
 
 #: The agent shipped with the package (``docs/agents.md`` names the command that trained it).
 BUNDLED = Path(__file__).parent / "data" / "agent.zip"
@@ -156,3 +161,26 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if condition == "free":
         return own
     return condition_excitation(condition, own, float(train.get("budget", budget)))
+
+
+def team(
+    config: EnvConfig,
+    n: int,
+    mode: str,
+    excitation: Any,
+    path: str | None = None,
+    condition: str | None = None,
+    **kwargs: Any,
+) -> Team:
+    """The policy ``agent`` (registered under the entry-point group ``anonloc.policies``): ``n``
+    robots with the ``bayes`` localizer (``mode``, ``kwargs``: ``threshold``, ``scale_known``)
+    driven by the agent saved at ``path`` (None: the bundled agent); ``condition``: ``free`` or
+    ``swarm`` (None: the run's own).
+
+    Raises:
+        ValueError: an ``excitation`` is given (the agent moves as it learned).
+    """
+    if excitation is not None:
+        raise ValueError("policy 'agent' moves as it learned: it takes no excitation")
+    localizer = BayesLocalizer(config, n, mode, **kwargs)
+    return Team(config, localizer, load_agent(path or BUNDLED_NAME, condition))

@@ -1,9 +1,10 @@
 """The one place the commands turn a policy name into a team of robots.
 
 Every command resolves names through :func:`policy_names` and builds teams through
-:func:`build_team`, so that learned agents can later join by extending these two functions.
-Excitations are resolved here too: the names of :data:`baselines.excitations.EXCITATIONS`, where
-``swarm`` (:class:`baselines.excitations.SwarmMotion`) shares its stream through the episode seed.
+:func:`build_team`; both come from :mod:`baselines.registry` (where other packages, such as
+``agents``, register their policies). Excitations are resolved here too: the registry's names,
+where ``swarm`` (:class:`baselines.excitations.SwarmMotion`) shares its stream through the episode
+seed.
 """
 
 from __future__ import annotations
@@ -19,16 +20,16 @@ from anonloc_env.config import EnvConfig
 
 def policy_names() -> list[str]:
     """The valid policy names."""
-    import baselines
+    from baselines.registry import policy_names as names
 
-    return baselines.policy_names()
+    return names()
 
 
 def excitation_names() -> list[str]:
     """The valid excitation names."""
-    from baselines.excitations import EXCITATIONS
+    from baselines.registry import excitation_names as names
 
-    return list(EXCITATIONS)
+    return names()
 
 
 def check_policy(name: str) -> str:
@@ -38,8 +39,8 @@ def check_policy(name: str) -> str:
 
 def check_excitation(name: str | None) -> str | None:
     """``name`` if it is an excitation (or None), else an :class:`InputError`. An old name
-    (:data:`baselines.excitations.RENAMED`) still works, with a note on stderr."""
-    from baselines.excitations import RENAMED
+    (:data:`baselines.registry.RENAMED`) still works, with a note on stderr."""
+    from baselines.registry import RENAMED
 
     if name in RENAMED:
         echo(f"note: excitation {name!r} is renamed {RENAMED[name]!r}", err=True)
@@ -100,17 +101,8 @@ def build_team(
 def check_team(
     policy: str, config: EnvConfig, *, mode: str, excitation_spec: Any = None, **kwargs: Any
 ) -> None:
-    """Build the team once to surface a bad combination before any work.
-
-    The faithful angular and linear methods read their own excitation's commands (the paper's
-    algorithms do), which the team only finds out at the first decision: checked here.
-    """
-    own = {"angular": "angular", "linear": "linear"}
-    if mode == "faithful" and policy in own and excitation_spec not in (None, own[policy]):
-        raise InputError(
-            f"the faithful {policy} method needs the {own[policy]} excitation "
-            f"(got {excitation_spec!r}); use --mode corrected or drop --excitation"
-        )
+    """Build the team once to surface a bad combination (a localizer's settings, a mode it
+    lacks, a scenario it cannot run in) before any work."""
     try:
         build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
     except (TypeError, ValueError) as error:

@@ -31,6 +31,11 @@ class Interval:
         push_sum: ``(R, 2)`` those bounds times the robot's lateral direction at each contact,
             summed, in its frame at the first picture (wheels see forward motion, so what a
             contact adds unseen is sideways).
+        command: ``(R, 2)`` the command ``(v, w)`` (m/s, rad/s) the robot's controller set at the
+            interval's first control step, just after the first picture (an excitation that holds
+            one command between pictures holds it throughout); None where the commands are not
+            recorded (the env's own odometry). The paper's faithful angular and linear methods
+            read it.
     """
 
     d: np.ndarray
@@ -40,6 +45,7 @@ class Interval:
     sum_dth2: np.ndarray
     push: np.ndarray | None = None
     push_sum: np.ndarray | None = None
+    command: np.ndarray | None = None
 
     @classmethod
     def exact(cls, d: np.ndarray, dphi: np.ndarray) -> Interval:
@@ -132,8 +138,11 @@ class IntervalStatistics:
         self.push_sum[who] += bound[:, None] * lateral(phi)
         self.contacts = True
 
-    def interval(self, d: np.ndarray, dphi: np.ndarray) -> Interval:
-        """The interval that ended with displacement ``d`` ``(N, 2)`` and turn ``dphi``."""
+    def interval(
+        self, d: np.ndarray, dphi: np.ndarray, command: np.ndarray | None = None
+    ) -> Interval:
+        """The interval that ended with displacement ``d`` ``(N, 2)`` and turn ``dphi``;
+        ``command`` ``(N, 2)``: the ``(v, w)`` set at its first step, if recorded."""
         return Interval(
             d=np.array(d, dtype=np.float64),
             dphi=np.array(dphi, dtype=np.float64),
@@ -142,6 +151,7 @@ class IntervalStatistics:
             sum_dth2=self.sum_dth2.copy(),
             push=self.push.copy() if self.contacts else None,
             push_sum=self.push_sum.copy() if self.contacts else None,
+            command=command,
         )
 
 

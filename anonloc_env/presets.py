@@ -38,7 +38,7 @@ _PAPER_ROBOT = RobotConfig(
 # per unit along u across the 8-unit arena, the range the paper measured.
 _PAPER_CAMERA = CameraConfig(scale=21.42, tilt_deg=4.24, height=10.0, orientation=True)
 
-# Detector noise worked back from the paper's second row of results (baselines.calibration,
+# Detector noise worked back from the paper's second row of results (baselines.paper_noise,
 # docs/calibration.md): a heading noise of 1.42 deg gives its 1.6 deg mean rotation error; a
 # pixel noise of 0.18 its 0.823 mean ratio deviation (slow straight drives); 2.40 its 7.22 deg
 # mean x/y heading disagreement (fast random motion: moving markers are detected less precisely).

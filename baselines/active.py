@@ -35,8 +35,8 @@ duty tells it the shared command and the budget through
 backward), and the predicted displacements are those of ``shared + budget * deviation``, for
 the others too (they follow the same shared stream).
 
-After a bump the robot reverses out (:class:`baselines.excitations.BackOff`) and resumes its
-choice.
+After a bump the robot reverses out (a :class:`baselines.excitations.BackOff` it holds) and
+resumes its choice.
 """
 
 from __future__ import annotations
@@ -44,16 +44,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from anonloc_env.identify import ring_loglik
-from baselines.excitations import BackOff, DistinctSettings, check_command_box
-from baselines.observations import Step
-
-if TYPE_CHECKING:
-    from baselines.localizers import Localizer
+from anonloc_env.identify import SensorModel, ring_loglik
+from baselines.excitations import BackOff, DistinctSettings, Excitation, check_command_box
+from baselines.steps import BeliefView, Step
 
 
 @dataclass
@@ -141,7 +137,7 @@ class Hypotheses:
 
 
 @dataclass(frozen=True)
-class Geometry:
+class PredictionGeometry:
     """What the prediction needs besides the hypotheses (image units, seconds).
 
     Attributes:
@@ -184,7 +180,11 @@ class CandidateSet:
 
 
 def expected_entropy(
-    hyp: Hypotheses, own: np.ndarray, others: np.ndarray, geo: Geometry, ring_samples: int = 8
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geo: PredictionGeometry,
+    ring_samples: int = 8,
 ) -> np.ndarray:
     """``(R, C)`` expected entropy (nats) of each robot's belief after the next picture.
 
@@ -249,15 +249,15 @@ def expected_entropy(
     return (hyp.weight[:, :, None] * entropy).sum(axis=1)
 
 
-class GreedyIdentification(BackOff):
+class GreedyIdentification(Excitation):
     """Drive, at each picture, the candidate command that best separates the robot's hypotheses
     (see the module documentation for the model).
 
-    It needs the team's localizer to expose ``belief`` (``(R, n_rows)``) and ``model`` (an
-    ``anonloc_env.identify.SensorModel``), as :class:`baselines.localizers.BayesLocalizer` does,
-    and reads the robots' limits and picture interval from ``localizer.config``. Until the first
-    picture has been taken in, and for a robot with no row above ``floor``, it drives a random
-    candidate.
+    At every picture the team tells it what the robots believe (a
+    :class:`~baselines.steps.BeliefView`: the team localizer's ``belief`` and sensor ``model``,
+    the picture's ``rows``, the robots' limits, picture interval and turn cost from its
+    ``config``). Until the first picture has been taken in, and for a robot with no row above
+    ``floor``, it drives a random candidate.
 
     Args:
         settings: candidates, the others' model, hypotheses and energy weight.
@@ -266,7 +266,7 @@ class GreedyIdentification(BackOff):
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GreedySettings()
-        self.back = self.settings.back
+        self.backoff = BackOff(self.settings.back)
         self.base = (np.zeros(0), np.zeros(0))
         self.budget = 1.0
         self.following = False
@@ -278,9 +278,9 @@ class GreedyIdentification(BackOff):
         self.base = (np.zeros(self.n), np.zeros(self.n))
         self.budget = 1.0
         self.following = False
-        self._reset_backoff()
+        self.backoff.reset(rngs)
         self._previous: np.ndarray | None = None
-        self._pending: tuple[Hypotheses, Geometry, float] | None = None
+        self._pending: tuple[Hypotheses, PredictionGeometry, float] | None = None
         self.last_entropy = np.zeros(self.n)
         """``(R,)`` expected entropy of the command chosen at the newest picture (nats)."""
 
@@ -289,17 +289,17 @@ class GreedyIdentification(BackOff):
         self.budget = budget
         self.following = True
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        belief = np.asarray(localizer.belief, dtype=np.float64)
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        belief = np.asarray(view.belief, dtype=np.float64)
         rows = step.rows
-        model = localizer.model
-        config = localizer.config
+        model = view.model
+        config = view.config
         if belief.shape[1] == 0 or len(rows) == 0:
             self._pending = None
             self._previous = rows
             return
         hyp = self._hypotheses(belief, rows, step, model.scale_bounds[1], model)
-        geo = Geometry(
+        geo = PredictionGeometry(
             scale=model.scale_bounds[1],
             pixel_var=max(model.pixel_noise, 1e-3) ** 2,
             scale_spread=model.scale_spread,
@@ -312,7 +312,7 @@ class GreedyIdentification(BackOff):
         self._previous = rows
 
     def _hypotheses(
-        self, belief: np.ndarray, rows: np.ndarray, step: Step, scale: float, model: object
+        self, belief: np.ndarray, rows: np.ndarray, step: Step, scale: float, model: SensorModel
     ) -> Hypotheses:
         st = self.settings
         k = min(st.hypotheses, belief.shape[1])
@@ -321,15 +321,13 @@ class GreedyIdentification(BackOff):
         weight = np.where(weight >= st.floor, weight, 0.0)
         weight /= np.maximum(weight.sum(axis=1, keepdims=True), 1e-300)
         pos = rows[order, :2]
-        if getattr(model, "orientation", False):
+        if model.orientation:
             theta = rows[order, 2]
-            sd = float(getattr(model, "orientation_noise", 0.0))
+            sd = float(model.orientation_noise)
             return Hypotheses(
                 weight, pos, theta, np.full(theta.shape, sd**2 + 1e-6), np.ones_like(theta, bool)
             )
-        return self._reconstructed(
-            weight, pos, step, scale, float(getattr(model, "pixel_noise", 1.0))
-        )
+        return self._reconstructed(weight, pos, step, scale, float(model.pixel_noise))
 
     def _reconstructed(
         self, weight: np.ndarray, pos: np.ndarray, step: Step, scale: float, pixel_noise: float
@@ -411,7 +409,10 @@ class GreedyIdentification(BackOff):
             self.drive(cset, (cset.entropy + self.settings.energy_weight * cset.spent).argmin(1))
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        self._start_backoff(step)
+        return self.backoff.commands(step, dt, lambda hit: self._own(step))
+
+    def _own(self, step: Step) -> tuple[np.ndarray, np.ndarray]:
+        """The command chosen at the newest picture (chosen now at a new one)."""
         if step.new_picture:
             self.choose()
-        return self._apply_backoff(dt, self.v, self.w)
+        return self.v, self.w

@@ -14,18 +14,13 @@ between all robots, each blending in a fraction ``jitter`` of its own draw.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from anonloc_env._checks import did_you_mean
-from baselines.observations import Step
-
-if TYPE_CHECKING:
-    from baselines.localizers import Localizer
+from baselines.steps import BeliefView, Step
 
 
 class Excitation:
@@ -73,10 +68,12 @@ class Excitation:
         """Called at every step, first, with the robots' observations (robot order, as the env
         gives them). The default does nothing."""
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        """Called at every new picture, after ``localizer`` (the team's) has taken it in, before
-        :meth:`commands`: ``localizer.estimate`` ``(R,)`` and ``localizer.belief`` ``(R, n)`` are
-        what the robots now believe. The default does nothing."""
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        """Called at every new picture, after the team's localizer has taken it in, before
+        :meth:`commands`: ``view`` (a :class:`~baselines.steps.BeliefView`) holds what the robots
+        now believe (``belief`` ``(R, n)``, ``estimate`` ``(R,)``), the localizer's sensor
+        ``model``, the picture's ``rows``, the ``interval`` just ended and the task's
+        ``config``. The default does nothing."""
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         """Called by :class:`SwarmDuty` before each :meth:`commands` when this excitation is the
@@ -87,7 +84,7 @@ class Excitation:
         """The commands held during the coming control step.
 
         Args:
-            step: what the robots observed at this step (:class:`baselines.observations.Step`):
+            step: what the robots observed at this step (:class:`baselines.steps.Step`):
                 ``new_picture``, the picture's ``rows`` ``(n, 3)`` (at a new picture),
                 ``odometry`` ``(R, 3)`` own ``(dx, dy, dphi)`` (m, rad) since that picture, and
                 ``bumper`` ``(R,)`` bool, a contact during the last step.
@@ -367,8 +364,8 @@ class SwarmDuty(Excitation):
     def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
         self.deviation.on_observations(observations)
 
-    def on_picture(self, step: Step, localizer: Localizer) -> None:
-        self.deviation.on_picture(step, localizer)
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        self.deviation.on_picture(step, view)
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v_shared, w_shared = self.shared.commands(step, dt)
@@ -414,46 +411,61 @@ class DistinctSettings:
             )
 
 
-class BackOff(Excitation):
-    """Base of the motions that reverse out of a bump: the robot drives backwards at
-    ``back_speed`` while turning at a random rate in ``[-turn, turn]`` for a random time in
-    ``back_time``, then resumes its own motion.
+class BackOff:
+    """Reversing out of a bump, a part an excitation holds: after a bump the robot drives
+    backwards at ``back_speed`` while turning at a random rate in ``[-turn, turn]`` for a random
+    time in ``back_time``, then resumes its own motion.
 
     Turning in place (:class:`BumpEscape`) leaves a jammed robot where it is, and a robot that
     does not move cannot be told from another one that does not move either (without detected
     headings, a turn in place is invisible): jammed robots are the last ones identified under the
     paper's random motion. Reversing frees them and keeps them moving.
 
-    Subclasses set ``back`` (a :class:`DistinctSettings`), call :meth:`_reset_backoff` in
-    ``reset``, in ``commands`` call :meth:`_start_backoff` first (it returns the robots that just
-    bumped) and pass their commands through :meth:`_apply_backoff` last.
+    The excitation resets it with its robots' generators (:meth:`reset`) and lets it wrap its
+    commands (:meth:`commands`): the back-off draws for the robots that just bumped, then asks the
+    excitation for its own commands, then replaces those of the robots reversing.
+
+    Args:
+        settings: ``back_speed``, ``back_time`` and ``turn``.
     """
 
-    back: DistinctSettings
+    def __init__(self, settings: DistinctSettings) -> None:
+        self.settings = settings
+        self.rngs: list[np.random.Generator] = []
+        self.backing = np.zeros(0)
+        """``(R,)`` time left reversing (s)."""
+        self.rate = np.zeros(0)
+        """``(R,)`` the turn rate while reversing (rad/s)."""
 
-    def _reset_backoff(self) -> None:
-        self.backing = np.zeros(self.n)  # time left reversing (s)
-        self.back_rate = np.zeros(self.n)
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        """Start an episode with the excitation's generators (one per robot; drawn in turn with
+        the excitation's own draws)."""
+        self.rngs = list(rngs)
+        self.backing = np.zeros(len(self.rngs))
+        self.rate = np.zeros(len(self.rngs))
 
-    def _start_backoff(self, step: Step) -> np.ndarray:
+    def commands(
+        self,
+        step: Step,
+        dt: float,
+        own: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The commands of this step: ``own(hit)`` (the excitation's ``(v, w)``, told which
+        robots ``hit`` just bumped), with those of the robots reversing replaced."""
         hit = np.flatnonzero(step.bumper & (self.backing <= 0.0)) if step.bumper.any() else _NONE
         if len(hit):
-            b = self.back
-            self.backing[hit] = self._draw(*b.back_time, hit)
-            self.back_rate[hit] = self._draw(-b.turn, b.turn, hit)
-        return hit
-
-    def _apply_backoff(
-        self, dt: float, v: np.ndarray, w: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+            b = self.settings
+            self.backing[hit] = [self.rngs[i].uniform(*b.back_time) for i in hit]
+            self.rate[hit] = [self.rngs[i].uniform(-b.turn, b.turn) for i in hit]
+        v, w = own(hit)
         backing = self.backing > 0.0
         self.backing = np.maximum(self.backing - dt, 0.0)
-        return np.where(backing, -self.back.back_speed, v), np.where(backing, self.back_rate, w)
+        return np.where(backing, -self.settings.back_speed, v), np.where(backing, self.rate, w)
 
 
-class DistinctMotion(BackOff):
+class DistinctMotion(Excitation):
     """A hand-designed excitation: a new random speed and turn rate at every picture, held until
-    the next one; reverse out of bumps (:class:`BackOff`).
+    the next one; reverse out of bumps (a :class:`BackOff`).
 
     Drawing the command at each picture (rather than at random moments, as the paper's random
     motion does) spreads the robots' displacements between pictures over the whole range of
@@ -469,65 +481,23 @@ class DistinctMotion(BackOff):
 
     def __init__(self, settings: DistinctSettings | None = None) -> None:
         super().__init__()
-        self.back = settings or DistinctSettings()
+        self.settings = settings or DistinctSettings()
+        self.backoff = BackOff(self.settings)
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
         self.v = np.zeros(self.n)
         self.w = np.zeros(self.n)
-        self._reset_backoff()
+        self.backoff.reset(rngs)
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        b = self.back
-        hit = self._start_backoff(step)
+        return self.backoff.commands(step, dt, lambda hit: self._own(step, hit))
+
+    def _own(self, step: Step, hit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A new command at every picture, and for the robots that just bumped."""
+        s = self.settings
         redraw = np.arange(self.n) if step.new_picture else hit
         if len(redraw):
-            self.v[redraw] = self._draw(*b.speed, redraw)
-            self.w[redraw] = self._draw(-b.turn, b.turn, redraw)
-        return self._apply_backoff(dt, self.v, self.w)
-
-
-def _greedy() -> Excitation:
-    from baselines.active import GreedyIdentification  # it builds on this module
-
-    return GreedyIdentification()
-
-
-EXCITATIONS: dict[str, Callable[[], Excitation]] = {
-    "still": Still,
-    "angular": Angular,
-    "linear": Linear,
-    "random": RandomMotion,
-    "swarm": SwarmMotion,
-    "distinct": DistinctMotion,
-    "greedy": _greedy,
-}
-"""Excitations by name (each value builds one). ``random`` is the paper's random motion
-(:class:`RandomMotion`, the excitation of the ``motion`` localizer); ``swarm`` is
-:class:`SwarmMotion` with its defaults (jitter ``SWARM_JITTER``, common seed 0); ``distinct`` is
-:class:`DistinctMotion`; ``greedy`` is :class:`baselines.active.GreedyIdentification`."""
-
-RENAMED = {"motion": "random"}
-"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
-``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
-
-
-def make_excitation(name: str) -> Excitation:
-    """A new excitation by name (a key of :data:`EXCITATIONS`, or an old one of :data:`RENAMED`).
-
-    Raises:
-        ValueError: an unknown name (the message lists the valid ones).
-    """
-    if name in RENAMED:
-        warnings.warn(
-            f"excitation {name!r} is renamed {RENAMED[name]!r}; the old name will be removed",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        name = RENAMED[name]
-    if name not in EXCITATIONS:
-        raise ValueError(
-            f"unknown excitation {name!r}{did_you_mean(name, EXCITATIONS)}; "
-            f"valid: {list(EXCITATIONS)}"
-        )
-    return EXCITATIONS[name]()
+            self.v[redraw] = self._draw(*s.speed, redraw)
+            self.w[redraw] = self._draw(-s.turn, s.turn, redraw)
+        return self.v, self.w

@@ -20,7 +20,6 @@ from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
 from baselines import angular, linear, matching, motion
-from baselines.excitations import Angular, Excitation, Linear
 
 MODES = ("corrected", "faithful")
 #: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
@@ -43,6 +42,18 @@ def relative_scale_gradient(config: EnvConfig) -> float:
     along_x = camera.local_scale(grid + np.array([step, 0.0])) - local
     along_y = camera.local_scale(grid + np.array([0.0, step])) - local
     return float(np.max(np.hypot(along_x, along_y) / (local * step)))
+
+
+def _commanded(interval: Interval, method: str) -> np.ndarray:
+    """``(R, 2)`` the command ``(v, w)`` set at ``interval``'s start, which the paper's faithful
+    ``method`` reads (Algorithm 1's ``r``, method B's ``v0`` and ``v1``)."""
+    if interval.command is None:
+        raise ValueError(
+            f"the faithful {method} method reads the robots' commanded speeds, which this "
+            "interval does not carry (Interval.command is None): run it in a Team, or use "
+            "mode='corrected'"
+        )
+    return interval.command
 
 
 class Localizer:
@@ -131,18 +142,16 @@ class Localizer:
         self.estimate = np.full(self.n, -1, dtype=np.int64)
         self.belief = np.zeros((self.n, 0))
 
-    def on_picture(
-        self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
-    ) -> None:
+    def on_picture(self, rows: np.ndarray, interval: Interval | None, duration: float) -> None:
         """Take in a picture and update ``estimate`` and ``belief``.
 
         Args:
             rows: ``(n, 3)`` the picture's rows ``(u, v, theta)`` (image units, rad), padding
                 removed, in random order.
-            interval: each robot's own motion since the previous picture, None at the first.
+            interval: each robot's own motion since the previous picture, None at the first
+                (with the command ``(v, w)`` it set at that interval's start, ``command``: the
+                paper's faithful angular and linear methods read it).
             duration: the time since the previous picture (s; 0 at the first).
-            excitation: what drove the robots meanwhile (the paper's faithful methods read its
-                commands; most localizers ignore it).
         """
         self.pictures = [*self.pictures[-2:], rows]
         if interval is not None:
@@ -152,13 +161,12 @@ class Localizer:
         self.estimate = np.full(self.n, -1, dtype=np.int64)
         self.belief = np.full((self.n, n_rows), 1.0 / max(n_rows, 1))
         if len(self.pictures) >= self.needs and len(self.intervals) >= self.needs - 1:
-            self.decide(excitation)
+            self.decide()
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         """Set ``estimate`` ``(R,)`` and ``belief`` ``(R, n)`` from the kept
         ``pictures`` and ``intervals``, ``n`` being the newest picture's rows. Called by
-        :meth:`on_picture` at every picture once ``needs`` pictures are kept; ``excitation``
-        is what drove the robots."""
+        :meth:`on_picture` at every picture once ``needs`` pictures are kept."""
         raise NotImplementedError(f"{type(self).__name__} must implement decide()")
 
     def _reach(self, interval: Interval) -> float:
@@ -209,13 +217,12 @@ class AngularLocalizer(Localizer):
             )
         super().__init__(config, n, mode)
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         first, second = self.pictures[-2], self.pictures[-1]
         interval = self.intervals[-1]
         if self.mode == "faithful":
-            if not isinstance(excitation, Angular):
-                raise ValueError("the faithful angular method needs the angular excitation")
-            rotation = excitation.rate * self.durations[-1]  # r * dt of Algorithm 1
+            rate = _commanded(interval, "angular")[:, 1]
+            rotation = rate * self.durations[-1]  # r * dt of Algorithm 1
             self._set_from_deviation(
                 angular.faithful_residuals(first[:, 2], second[:, 2], rotation)
             )
@@ -233,12 +240,12 @@ class LinearLocalizer(Localizer):
 
     needs = 3
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
         if self.mode == "faithful":
-            if not isinstance(excitation, Linear) or len(excitation.speeds) < 2:
-                raise ValueError("the faithful linear method needs the linear excitation")
-            v0, v1 = excitation.speeds[-2], excitation.speeds[-1]  # the two legs just driven
+            # The speeds commanded over the two legs just driven.
+            v0 = _commanded(self.intervals[-2], "linear")[:, 0]
+            v1 = _commanded(self.intervals[-1], "linear")[:, 0]
             t0, t1 = self.durations[-2], self.durations[-1]
             with np.errstate(divide="ignore"):
                 ratio = v0 * t0 / (v1 * t1)
@@ -264,7 +271,7 @@ class LinearLocalizer(Localizer):
 class MotionLocalizer(Localizer):
     """Paper II.C with the scale known (two pictures)."""
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         first, second = self.pictures[-2], self.pictures[-1]
         interval = self.intervals[-1]
         if self.mode == "faithful":
@@ -292,7 +299,7 @@ class Motion3Localizer(Localizer):
 
     needs = 3
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         p0, p1, p2 = (p[:, :2] for p in self.pictures[-3:])
         first, second = self.intervals[-2], self.intervals[-1]
         if self.mode == "faithful":
@@ -351,9 +358,7 @@ class BayesLocalizer(Localizer):
         super().reset()
         self.identifier.reset()
 
-    def on_picture(
-        self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
-    ) -> None:
+    def on_picture(self, rows: np.ndarray, interval: Interval | None, duration: float) -> None:
         self.identifier.update(rows, interval)
         self.belief = self.identifier.belief()
         n_rows = self.belief.shape[1]

@@ -19,9 +19,9 @@ import numpy as np
 
 import anonloc_env
 from anonloc_env.geometry import wrap_angle
-from baselines import POLICIES, make_team
-from baselines.calibration import SCALE_USED, xy_disagreement
 from baselines.localizers import BayesLocalizer
+from baselines.paper_noise import SCALE_USED, xy_disagreement
+from baselines.registry import POLICIES, make_team
 from baselines.runner import EpisodeResult, run_episode
 
 

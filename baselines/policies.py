@@ -13,12 +13,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from anonloc_env.actions import to_actions
+from anonloc_env.actions import to_actions, to_commands
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.localizers import Localizer
-from baselines.observations import OdometryLog, Step, read_step
+from baselines.steps import BeliefView, OdometryLog, Step, read_step
 
 
 @runtime_checkable
@@ -94,35 +94,40 @@ class Team:
     def observe(self, observations: Sequence[Mapping[str, Any]]) -> Step:
         """Take in one step of the robots' observations (in robot order): the motion log and, at
         a new picture, every localizer and then the excitation's
-        :meth:`~baselines.excitations.Excitation.on_picture`.
+        :meth:`~baselines.excitations.Excitation.on_picture` (told what the team's localizer
+        now believes, a :class:`~baselines.steps.BeliefView`).
         """
         step = read_step(observations)
         interval = self.log.observe(step)
         if step.new_picture:
             first = self.pictures_seen == 0
-            if not first and interval is not None:
+            if first:
+                interval = None
+            elif interval is not None:
                 self.intervals.append(interval)
             for localizer in (self.localizer, *self.listeners.values()):
-                localizer.on_picture(
-                    step.rows, None if first else interval, step.interval, self.excitation
-                )
+                localizer.on_picture(step.rows, interval, step.interval)
             self.pictures_seen += 1
-            self.excitation.on_picture(step, self.localizer)
+            own = self.localizer
+            view = BeliefView(step.rows, own.belief, own.estimate, own.model, interval, self.config)
+            self.excitation.on_picture(step, view)
         return step
 
-    def commanded(self, actions: np.ndarray) -> None:
-        """Record the actions ``(R, 2)`` sent for this step (the contact model reads the
-        commanded speed)."""
-        self.log.speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+    def command(self, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The env's actions ``(R, 2)`` for the commands ``v`` (m/s) and ``w`` (rad/s) of this
+        step, recorded in the motion log (each interval carries the command set at its start;
+        the contact model reads the speed sent)."""
+        actions = to_actions(v, w, self.config.robot)
+        speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+        self.log.command(v, w, speed)
+        return actions
 
     def act(self, observations: Sequence[Mapping[str, Any]]) -> np.ndarray:
         """Actions ``(R, 2)`` for the robots' observations (in robot order)."""
         self.excitation.on_observations(observations)
         step = self.observe(observations)
         v, w = self.excitation.commands(step, self.config.dt)
-        actions = to_actions(v, w, self.config.robot)
-        self.commanded(actions)
-        return actions
+        return self.command(v, w)
 
     def _pick(self, listener: str | None) -> Localizer:
         if listener is None:
@@ -204,3 +209,29 @@ class BaselinePolicy:
 
     def __repr__(self) -> str:
         return f"BaselinePolicy({self.name!r})"
+
+
+class PolicyExcitation(Excitation):
+    """Any policy (e.g. a learned one) used as the motion of a localizing robot.
+
+    Args:
+        policy: speaks :class:`Policy` (``predict`` on a batch of the robots' observations).
+        config: the task (the robots' limits turn its actions into commands).
+    """
+
+    def __init__(self, policy: Policy, config: EnvConfig) -> None:
+        super().__init__()
+        self.policy = policy
+        self.config = config
+        self.observations: list[Any] = []
+
+    def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
+        self.observations = list(observations)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        batch = {
+            key: np.stack([np.asarray(o[key]) for o in self.observations])
+            for key in self.observations[0]
+        }
+        actions, _ = self.policy.predict(batch, deterministic=True)
+        return to_commands(np.asarray(actions).reshape(self.n, 2), self.config.robot)

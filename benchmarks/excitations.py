@@ -36,7 +36,8 @@ from collections.abc import Callable, Mapping, Sequence
 import anonloc_env
 import baselines
 from anonloc_env.config import EnvConfig
-from baselines.excitations import EXCITATIONS, Excitation, SwarmDuty
+from baselines.excitations import Excitation, SwarmDuty
+from baselines.registry import EXCITATIONS
 from baselines.runner import run_episode
 from baselines.scoring import IdentificationSummary, summarize
 

@@ -47,7 +47,6 @@ import baselines
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
 from anonloc_env.identify.model import push_isotropic
-from baselines.excitations import Excitation
 from baselines.localizers import Localizer, Motion3Localizer
 from baselines.paper import wilson
 from baselines.policies import Team
@@ -131,9 +130,7 @@ class _Recorder(Localizer):
         super().reset()
         self.log: list[tuple[np.ndarray, Interval | None, float]] = []
 
-    def on_picture(
-        self, rows: np.ndarray, interval: Interval | None, duration: float, excitation: Excitation
-    ) -> None:
+    def on_picture(self, rows: np.ndarray, interval: Interval | None, duration: float) -> None:
         self.log.append((np.array(rows, dtype=np.float64), interval, duration))
 
 
@@ -221,10 +218,9 @@ def score_motion3(episode: Episode, scores: Scores) -> None:
     """Replay the corrected ``motion3`` localizer; count its first decisions."""
     config = episode.config
     loc = Motion3Localizer(config, config.n_robots)
-    excitation = baselines.make_team("motion", config, excitation="random").excitation
     first = np.full(config.n_robots, -2)
     for (rows, interval, duration), true in zip(episode.observed, episode.true_rows, strict=True):
-        loc.on_picture(rows, interval, duration, excitation)
+        loc.on_picture(rows, interval, duration)
         new = (first == -2) & (loc.estimate >= 0)
         first[new] = (loc.estimate == true)[new].astype(int)
     scores.first_right += int((first == 1).sum())

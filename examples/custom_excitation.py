@@ -17,8 +17,8 @@ import numpy as np
 import anonloc_env
 import baselines
 from baselines.excitations import Excitation
-from baselines.observations import Step
 from baselines.runner import run_episode
+from baselines.steps import Step
 
 
 class Zigzag(Excitation):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 import anonloc_env
-from baselines.excitations import Excitation, RandomMotion
+from baselines.excitations import RandomMotion
 from baselines.localizers import Localizer
 from baselines.policies import Team
 from baselines.runner import run_episode
@@ -25,7 +25,7 @@ class DistanceLocalizer(Localizer):
 
     needs = 2  # pictures kept before the first decide()
 
-    def decide(self, excitation: Excitation) -> None:
+    def decide(self) -> None:
         before = self.pictures[-2][:, :2]  # (n0, 2) image units
         now = self.pictures[-1][:, :2]  # (n, 2) image units
         interval = self.intervals[-1]  # each robot's own motion between the two

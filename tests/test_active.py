@@ -10,14 +10,15 @@ import pytest
 import anonloc_env
 import baselines
 from baselines.active import (
-    Geometry,
     GreedyIdentification,
     GreedySettings,
     Hypotheses,
+    PredictionGeometry,
     expected_entropy,
     unicycle,
 )
-from baselines.excitations import EXCITATIONS, DistinctMotion, SwarmDuty
+from baselines.excitations import DistinctMotion, SwarmDuty
+from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, PictureRecord, run_episode
 from baselines.scoring import bootstrap_mean, pictures_to_identify, summarize
 
@@ -96,7 +97,7 @@ def _two_hypotheses(known: bool) -> Hypotheses:
     )
 
 
-GEO = Geometry(
+GEO = PredictionGeometry(
     scale=100.0, pixel_var=1.0, scale_spread=0.0, clutter=1e-5, p_detect=1.0, duration=1.0
 )
 

@@ -9,7 +9,7 @@ import pytest
 
 import anonloc_env
 import baselines
-from baselines import calibration
+from baselines import paper_noise
 from baselines.policies import Policy
 from baselines.runner import run_episode
 
@@ -229,13 +229,13 @@ def test_the_swarm_excitation_is_a_baseline_excitation() -> None:
 
 
 def test_presets_reproduce_the_papers_second_row() -> None:
-    """The presets' noise is what the paper's reported deviations imply (calibration.py), so
+    """The presets' noise is what the paper's reported deviations imply (paper_noise.py), so
     the calibration functions return the paper's means within 2 % at the preset values."""
     from anonloc_env import presets
 
-    angular_mean, _ = calibration.angular_deviation(presets.PAPER_ORIENTATION_NOISE_DEG)
-    linear_mean, _ = calibration.linear_deviation(presets.PAPER_STILL_PIXEL_NOISE)
-    motion_mean, _ = calibration.motion_deviation(presets.PAPER_MOVING_PIXEL_NOISE)
+    angular_mean, _ = paper_noise.angular_deviation(presets.PAPER_ORIENTATION_NOISE_DEG)
+    linear_mean, _ = paper_noise.linear_deviation(presets.PAPER_STILL_PIXEL_NOISE)
+    motion_mean, _ = paper_noise.motion_deviation(presets.PAPER_MOVING_PIXEL_NOISE)
     assert angular_mean == pytest.approx(1.6, rel=0.02)
     assert linear_mean == pytest.approx(0.823, rel=0.02)
     assert motion_mean == pytest.approx(7.22, rel=0.02)

@@ -32,7 +32,7 @@ def test_the_swarm_excitation_gives_identical_commands_without_jitter() -> None:
     import numpy as np
 
     from baselines.excitations import SwarmMotion
-    from baselines.observations import Step
+    from baselines.steps import Step
 
     swarm = SwarmMotion(0.0, common_seed=3)
     swarm.reset([np.random.default_rng(i) for i in range(3)])

@@ -52,7 +52,7 @@ def test_the_example_localizer_is_a_localizer_the_base_class_drives() -> None:
     localizer = namespace["DistanceLocalizer"](config, 3)
     assert isinstance(localizer, baselines.localizers.Localizer)
     rows = np.array([[0.0, 0.0, 0.0], [300.0, 0.0, 0.0], [0.0, 300.0, 0.0]])
-    localizer.on_picture(rows, None, 0.0, RandomMotion())  # one picture: undecided, uniform
+    localizer.on_picture(rows, None, 0.0)  # one picture: undecided, uniform
     np.testing.assert_array_equal(localizer.estimate, [-1, -1, -1])
     np.testing.assert_allclose(localizer.belief, np.full((3, 3), 1 / 3))
 

@@ -3,7 +3,8 @@
 A localizer sees, at every step, what its robot observes and nothing else. :class:`OdometryLog`
 turns the per-step own odometry into what the localizers need at each picture: an
 ``anonloc_env.odometry.Interval`` (displacement, heading change, distance rolled, the squares
-of the per-step increments for the noise model, and how far contacts may have pushed it).
+of the per-step increments for the noise model, how far contacts may have pushed it, and the
+command ``(v, w)`` the robot set at the interval's start).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from anonloc_env.config import EnvConfig
+from anonloc_env.identify import SensorModel
 from anonloc_env.odometry import Interval, IntervalStatistics
 
 
@@ -38,6 +41,30 @@ class Step:
     bumper: np.ndarray
     between: np.ndarray
     interval: float
+
+
+@dataclass(frozen=True)
+class BeliefView:
+    """What the robots of a team believe at a new picture: all an excitation that reads beliefs
+    (an active one, :mod:`baselines.active`) is told, handed over by the team after its
+    localizer took the picture in.
+
+    Attributes:
+        rows: ``(n, 3)`` the picture's rows ``(u, v, theta)`` (image units, rad).
+        belief: ``(R, n)`` each robot's probability for each row (the team localizer's).
+        estimate: ``(R,)`` the row each robot believes is itself, -1 while undecided.
+        model: the sensor model the localizer reasons with (noise, misses, scale bounds).
+        interval: each robot's own motion since the previous picture (None at the first).
+        config: the task as the robots know it (their limits, the picture interval, the reward's
+            turn cost).
+    """
+
+    rows: np.ndarray
+    belief: np.ndarray
+    estimate: np.ndarray
+    model: SensorModel
+    interval: Interval | None
+    config: EnvConfig
 
 
 def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
@@ -88,13 +115,26 @@ class OdometryLog:
         self.n = n
         self.stats = IntervalStatistics(n, v_max, dt)
         self.speed = np.zeros(n)
-        """``(R,)`` forward speed commanded for the step under way (set by the team)."""
+        """``(R,)`` forward speed commanded for the step under way (set by :meth:`command`)."""
         self.reset()
 
     def reset(self) -> None:
         """Forget the current interval."""
         self.last = np.zeros((self.n, 3))
         self.stats.clear()
+        self.held: np.ndarray | None = None
+        """``(R, 2)`` the command ``(v, w)`` set at the current interval's first step."""
+
+    def command(self, v: np.ndarray, w: np.ndarray, speed: np.ndarray) -> None:
+        """The robots' commands for the step under way: ``v`` (m/s) and ``w`` (rad/s) as the
+        controller set them (the interval's first ones are kept for its ``Interval``), and
+        ``speed`` ``(R,)`` the forward speed the env was sent (m/s, for the contact model)."""
+        self.speed = speed
+        if self.held is None:
+            shape = (self.n,)
+            self.held = np.column_stack(
+                [np.broadcast_to(np.asarray(x, np.float64), shape) for x in (v, w)]
+            )
 
     def _add(self, increment: np.ndarray, bumper: np.ndarray) -> None:
         if bumper.any():
@@ -110,7 +150,7 @@ class OdometryLog:
             return None
         # The last step before the picture is seen only through the whole interval's motion.
         self._add(step.between - self.last, step.bumper)
-        interval = self.stats.interval(step.between[:, :2], step.between[:, 2])
+        interval = self.stats.interval(step.between[:, :2], step.between[:, 2], self.held)
         self.reset()
         self.last = step.odometry
         return interval
