@@ -157,7 +157,7 @@ class ProgressEvaluation(BaseCallback):
         self.logger.record("eval/pictures_to_99", pictures)
         self.logger.record("eval/identified_at_end", identified)
         if self.progress is not None:
-            returns = [info["r"] for info in self.model.ep_info_buffer]
+            returns = [info["r"] for info in self.model.ep_info_buffer or []]
             self.progress.show(
                 ret=f"{np.mean(returns):.2f}" if returns else "-",
                 identified=f"{100 * identified:.0f}%",
@@ -168,7 +168,7 @@ class ProgressEvaluation(BaseCallback):
     def against_random(self, model: Any) -> tuple[float, float]:
         """Pictures to 99 % of ``model`` and of random motion on the evaluation seeds."""
         from agents.evaluation import censored_pictures, play
-        from baselines.excitations import make_excitation
+        from baselines.registry import make_excitation
 
         self.model = model
         mine = self.evaluate()

@@ -59,6 +59,7 @@ def collect_demonstrations(
         raise ValueError(f"gamma must be in [0, 1], got {gamma}")
     vec_env.seed(seed)
     observation = vec_env.reset()
+    assert isinstance(observation, dict)
     rounds = -(-decisions // vec_env.num_envs)
     cands, contexts, labels, rewards, dones = [], [], [], [], []
     for _ in range(rounds):
@@ -66,7 +67,9 @@ def collect_demonstrations(
         cands.append(observation["candidates"])
         contexts.append(observation["context"])
         labels.append(label)
-        observation, reward, done, _ = vec_env.step(label)
+        stepped, reward, done, _ = vec_env.step(label)
+        assert isinstance(stepped, dict)
+        observation = stepped
         rewards.append(reward)
         dones.append(done)
     returns = np.zeros((rounds, vec_env.num_envs))

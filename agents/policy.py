@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from agents.candidates import CandidateChooser
 from agents.crew import condition_excitation
@@ -131,7 +132,8 @@ def load_model(path: str | Path) -> Any:
     check_layout(file)
     model = PPO.load(file, device="cpu")
     space = model.observation_space
-    shapes = (space["candidates"].shape[1:], space["context"].shape)
+    assert isinstance(space, spaces.Dict)  # check_layout saw its two keys
+    shapes = (tuple(space["candidates"].shape or ())[1:], space["context"].shape)
     if shapes != ((CANDIDATE_FEATURES,), (CONTEXT_FEATURES,)):
         raise ValueError(
             f"{file} has {shapes[0]} features per candidate and {shapes[1]} of context; layout "

@@ -212,19 +212,25 @@ def make_vec_env(config: TrainConfig) -> Any:
     from agents.conditions import ConditionRanges, training_scenarios
     from agents.vec import AnonLocVecEnv
 
-    common = {"information_weight": config.information_weight, "reward": config.reward}
     if config.condition == "mixed":
         ranges = ConditionRanges()
         if config.energy_weight is not None:
             ranges = dataclasses.replace(ranges, energy_weight=config.energy_weight)
         scenarios = training_scenarios(config.n_envs, config.seed, ranges)
-        return AnonLocVecEnv(scenarios[0].config, scenarios=scenarios, redraw=ranges, **common)
+        return AnonLocVecEnv(
+            scenarios[0].config,
+            information_weight=config.information_weight,
+            reward=config.reward,
+            scenarios=scenarios,
+            redraw=ranges,
+        )
     return AnonLocVecEnv(
         config.env_config(),
         n_envs=config.n_envs,
         condition=config.condition,
         budget=config.budget,
-        **common,
+        information_weight=config.information_weight,
+        reward=config.reward,
     )
 
 
