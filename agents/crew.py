@@ -28,7 +28,7 @@ from baselines.policies import Team
 from baselines.steps import Step
 
 CONDITIONS = ("free", "swarm")
-REWARDS = ("log_belief", "information")
+REWARDS = ("log_belief", "information", "team")
 #: The identity term of the ``log_belief`` reward is floored here (nats: log 1e-3 = -6.9), so that
 #: one robot's bad picture cannot dominate a batch.
 LOG_BELIEF_FLOOR = 1e-3
@@ -77,7 +77,9 @@ class Crew:
             robot gives its true row (floored at ``LOG_BELIEF_FLOOR``), so that every picture
             spent unsure costs what is still unknown; or ``information``, the nats gained since
             the previous picture (the env's ``InformationGain``; it telescopes, so only the
-            discount rewards being quick).
+            discount rewards being quick); or ``team``, the mean over the env's robots of their
+            ``log_belief`` terms, the same for every robot: a robot's motion also decides how
+            well the others are told apart, which a reward of its own does not see.
         candidates: candidates per robot and picture (the policy's choices).
     """
 
@@ -148,10 +150,12 @@ class Crew:
         truth = true_rows(infos, self.agents)
         if step.new_picture:
             belief = true_belief(self.localizer.belief, truth)
-            if self.reward == "log_belief":
-                identity = np.log(np.maximum(belief, LOG_BELIEF_FLOOR))
-            else:
+            if self.reward == "information":
                 identity = information(self._belief_true, belief)
+            else:
+                identity = np.log(np.maximum(belief, LOG_BELIEF_FLOOR))
+                if self.reward == "team":
+                    identity = np.full(self.n, identity.mean())
             reward += self.information_weight * identity
             self._belief_true = belief
         present = truth >= 0

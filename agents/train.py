@@ -64,8 +64,9 @@ class TrainConfig:
     information_weight: float = 1.0
     """Weight of the identity term of the reward."""
     reward: str = "log_belief"
-    """The identity term: ``log_belief`` (log of the belief in the true row, at every picture)
-    or ``information`` (nats gained since the previous picture); see :class:`agents.crew.Crew`."""
+    """The identity term: ``log_belief`` (log of the belief in the true row, at every picture),
+    ``information`` (nats gained since the previous picture) or ``team`` (the robots' mean
+    ``log_belief``, shared); see :class:`agents.crew.Crew`."""
     energy_weight: float | None = None
     """Reward lost per metre of wheel travel; None keeps the scenario's ``reward.energy_weight``."""
     hidden: int = 64
