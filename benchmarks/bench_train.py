@@ -11,15 +11,12 @@ Both sides train PPO (``stable_baselines3.PPO.learn``) with the same hyperparame
 ``--copies`` copies of the ``default`` scenario with N robots, every robot a slot of the
 ``VecEnv``, one torch thread:
 
-* ``anonloc``: :class:`agents.vec.AnonLocVecEnv` (what ``anonloc train`` trains on): the crew's
-  belief-annotated observation ``rows (D, 6)``, ``mask (D,)``, ``own (12,)`` and the crew's
-  reward (energy every step, the identity term at pictures, from each robot's own identifier),
-  with ``MultiInputPolicy`` (SB3's ``CombinedExtractor`` flattens and concatenates the keys, then
-  ``net_arch`` 64-64 for the policy and for the value). The policy decides once per picture and
-  its command is held until the next one, so one decision covers ``picture_interval / dt``
-  control steps (20 in the ``default`` scenario).
-* ``anonloc-flat``: the same with :class:`agents.features.FlatExtractor` (a 64-64 MLP before
-  ``net_arch``), the order-dependent extractor of ``anonloc train``.
+* ``anonloc``: :class:`agents.vec.AnonLocVecEnv` (what ``anonloc train`` trains on): the
+  candidate observation ``candidates (8, 7)``, ``context (10,)`` (every robot's own identifier
+  scores its candidate commands) and the crew's reward, with
+  :class:`agents.features.CandidatePolicy` (the candidate scorer, 64 wide). The policy decides
+  once per picture and its choice is held until the next one, so one decision covers
+  ``picture_interval / dt`` control steps (20 in the ``default`` scenario).
 * ``supersuit``: ``concat_vec_envs_v1(pettingzoo_env_to_vec_env_v1(env), copies,
   base_class="stable_baselines3")`` around the raw ``AnonLocEnv`` (its default
   ``InformationGain`` reward, its raw observation of 8 keys: ``detections (D, 3)``, ``mask``,
@@ -28,8 +25,8 @@ Both sides train PPO (``stable_baselines3.PPO.learn``) with the same hyperparame
   ``ConcatVecEnv`` (it has no ``seed`` method), so that side runs with ``seed=None``.
 
 The observations differ (that is the point of the adapter), so the networks' inputs differ:
-``7 D + 12`` numbers for ``anonloc``, ``4 D + 10`` for ``supersuit``; the script prints each
-policy's parameter count.
+``66`` numbers for ``anonloc``, ``4 D + 10`` for ``supersuit``; the script prints each policy's
+parameter count.
 
 Two rates are printed: **decisions/s** (samples PPO trains on per second: slots x policy calls)
 and **robot-steps/s** (robot control steps of experience simulated per second). For SuperSuit,
@@ -70,15 +67,14 @@ def _threads() -> None:
     torch.set_num_threads(1)
 
 
-def build_anonloc(n_robots: int, copies: int, ppo: dict[str, Any], flat: bool = False) -> Any:
+def build_anonloc(n_robots: int, copies: int, ppo: dict[str, Any]) -> Any:
     from stable_baselines3 import PPO
 
-    from agents.features import FlatExtractor
+    from agents.features import CandidatePolicy
     from agents.vec import AnonLocVecEnv
 
     env = AnonLocVecEnv(make_config(n_robots=n_robots), n_envs=copies)
-    kwargs = {"features_extractor_class": FlatExtractor} if flat else None
-    return PPO("MultiInputPolicy", env, seed=SEED, policy_kwargs=kwargs, verbose=0, **ppo)
+    return PPO(CandidatePolicy, env, seed=SEED, verbose=0, **ppo)
 
 
 def supersuit_env(n_robots: int, copies: int) -> Any:
@@ -139,7 +135,6 @@ def measure(
 
     builders: dict[str, Callable[[], Any]] = {
         "anonloc": lambda: build_anonloc(n_robots, copies, ppo),
-        "anonloc-flat": lambda: build_anonloc(n_robots, copies, ppo, flat=True),
         "supersuit": lambda: build_supersuit(n_robots, copies, ppo),
     }
     names = list(builders)

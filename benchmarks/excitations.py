@@ -19,11 +19,10 @@ Usage::
     python benchmarks/excitations.py --robots 10 100 --conditions free swarm --episodes 30
     python benchmarks/excitations.py --robots 10 --conditions free --agent runs/free-10/agent.zip
 
-``--agent PATH`` adds a saved learned agent (``agents``, the ``rl`` extra) as the excitations
-``agent`` (its mean action) and ``agent-sampled`` (its Gaussian sampled with each robot's own
-generator); on swarm duty it is the deviation, as it was trained. To compare another excitation,
-pass it to :func:`run` in ``extra`` (name -> a function of the episode seed returning the
-``Excitation``).
+``--agent PATH`` adds a saved learned agent (``agents``, the ``rl`` extra; ``bundled`` for the
+agent shipped with the package) as the excitation ``agent``; on swarm duty it is the deviation.
+To compare another excitation, pass it to :func:`run` in ``extra`` (name -> a function of the
+episode seed returning the ``Excitation``).
 """
 
 from __future__ import annotations
@@ -114,7 +113,8 @@ def main() -> None:
         from agents.policy import LearnedExcitation, load_model
 
         model = load_model(args.agent)
-        names[:0] = ["agent", "agent-sampled"]
+        names[:0] = ["agent"]
+        extra["agent"] = lambda seed: LearnedExcitation(model)
     print(
         "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) "
         "| pictures, all episodes | s |"
@@ -122,12 +122,6 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|")
     for n in args.robots:
         for condition in args.conditions:
-            if args.agent:
-                config = scenario(n, args.pictures)
-                extra["agent"] = lambda seed, config=config: LearnedExcitation(model, config)
-                extra["agent-sampled"] = lambda seed, config=config: LearnedExcitation(
-                    model, config, deterministic=False
-                )
             table = run(
                 n, condition, names, args.episodes, args.pictures, args.budget, extra,
                 args.first_seed,

@@ -343,3 +343,44 @@ def test_redrawn_scenarios_keep_each_copys_robots_and_replay_from_the_seed() -> 
         assert [c.config for c in venv.crews] != [s.config for s in scenarios]  # redrawn
     assert _same(runs[0][0], runs[1][0])
     assert runs[0][1] == runs[1][1]
+
+
+def test_a_run_imitates_greedy_then_trains_and_ends_against_random(tmp_path: Path) -> None:
+    from agents.train import TrainConfig, train
+
+    config = TrainConfig(
+        overrides=SMALL,
+        n_envs=1,
+        n_steps=8,
+        batch_size=24,
+        timesteps=48,
+        imitation=60,
+        imitation_epochs=2,
+        eval_episodes=2,
+        checkpoint_every=24,
+        out=str(tmp_path),
+        name="run",
+    )
+    result = train(config)
+    assert result.comparison is not None
+    mine, random = result.comparison
+    # Censored at the episode's 6 pictures.
+    assert 0.0 <= mine <= 6.0
+    assert 0.0 <= random <= 6.0
+    log = (result.directory / "tb" / "progress.csv").read_text().splitlines()
+    header = log[0].split(",")
+    assert "eval/pictures_to_99" in header
+    assert "eval/identified_at_end" in header
+    model = load_model(result.agent)
+    assert model.action_space.n == CANDIDATES
+
+
+def test_a_mixed_run_draws_its_scenarios_and_refuses_overrides() -> None:
+    from agents.conditions import TRAINING_ROBOTS
+    from agents.train import TrainConfig, make_vec_env
+
+    venv = make_vec_env(TrainConfig(condition="mixed", n_envs=3, seed=4))
+    assert len(venv.crews) == 3
+    assert all(crew.n in TRAINING_ROBOTS for crew in venv.crews)
+    with pytest.raises(ValueError, match="mixed"):
+        TrainConfig(condition="mixed", overrides={"n_robots": 5})

@@ -1,0 +1,103 @@
+"""The agent bundled with the package: one set of weights for every N, camera and duty."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+pytest.importorskip("stable_baselines3")
+
+import anonloc_env
+import baselines
+from agents.evaluation import censored_pictures, play
+from agents.policy import BUNDLED, LearnedExcitation, load_model
+from baselines.registry import make_excitation
+from tests.cli_helpers import read_csv, run_script
+
+
+def _scenario(n: int, **camera: object) -> dict[str, object]:
+    side = math.sqrt(n)
+    return {
+        "n_robots": n,
+        "arena_size": (side, side),
+        "camera": {"pixel_noise": 1.0, "orientation": False, **camera},
+    }
+
+
+def test_the_bundled_agent_ships_with_the_package() -> None:
+    assert BUNDLED.is_file()
+    model = load_model("bundled")
+    assert model.action_space.n == 8
+
+
+@pytest.mark.parametrize("n", [2, 10, 100, 1000])
+def test_the_bundled_agent_runs_at_any_n_with_the_same_weights(n: int) -> None:
+    env = anonloc_env.parallel_env(**_scenario(n), max_cycles=45)
+    team = baselines.make_team("agent", env)  # no path: the bundled agent
+    assert isinstance(team.excitation, LearnedExcitation)
+    weights = team.excitation.model.policy.state_dict()
+    reference = load_model(BUNDLED).policy.state_dict()
+    assert all(np.array_equal(weights[k], reference[k]) for k in reference)
+    observations, _ = env.reset(seed=1)
+    team.reset(np.random.SeedSequence(4).spawn(n))
+    robot = env.action_space("robot_0")
+    for _ in range(45):
+        actions = team.act([observations[a] for a in env.possible_agents])
+        assert actions.shape == (n, 2)
+        assert all(robot.contains(a.astype(np.float32)) for a in actions)
+        observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
+    assert team.excitation.cset is not None  # it scored and chose at the pictures
+
+
+def test_same_seed_same_actions_with_the_bundled_agent() -> None:
+    env = anonloc_env.parallel_env(**_scenario(12, p_miss=0.1, false_positives=2.0))
+    runs = [baselines.runner.run_episode(env, baselines.make_team("agent", env), 5)]
+    runs.append(baselines.runner.run_episode(env, baselines.make_team("agent", env), 5))
+    assert runs[0].records == runs[1].records
+    other = baselines.runner.run_episode(env, baselines.make_team("agent", env), 5, policy_seed=9)
+    assert other.records != runs[0].records
+
+
+def test_make_gives_one_robots_policy_of_the_bundled_agent() -> None:
+    env = anonloc_env.parallel_env(**_scenario(4))
+    policy = baselines.make("agent", env)
+    observations, _ = env.reset(seed=0)
+    action, _ = policy.predict(observations["robot_0"])
+    assert env.action_space("robot_0").contains(action.astype(np.float32))
+
+
+def test_anonloc_eval_runs_the_bundled_agent_with_no_path(tmp_path: Path) -> None:
+    out = tmp_path / "e.csv"
+    done = run_script(
+        "eval", "--agent", "bundled", "--seeds", "1", "--out", out, "--workers", "1",
+        "--quiet", "--pictures", "3", "--set", "n_robots=4", "--set", "arena_size=[2.0, 2.0]",
+        timeout=180,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rows = read_csv(out)
+    assert {r["policy"] for r in rows} == {"agent"}
+    assert len(rows) >= 4
+
+
+@pytest.mark.slow
+def test_the_bundled_agent_beats_random_motion_on_a_small_condition() -> None:
+    """Free motion, 10 robots at one per square metre, 1 px, no headings, 20 episodes on seeds
+    no run trains on: the bundled agent needs fewer pictures to 99 % than random motion.
+
+    Measured when the agent was bundled (``docs/agents.md``): the agent about 3 and random
+    about 4.6 pictures, each mean with a standard error near 0.15 over 20 episodes; the test
+    asks for 0.5 pictures fewer, more than 2 standard errors of the difference short of the
+    measured gap."""
+    config = anonloc_env.make_config(**_scenario(10), max_cycles=401)
+    seeds = range(300_000, 300_020)
+    model = load_model("bundled")
+    agent = censored_pictures(play(config, "free", 0.2, lambda: LearnedExcitation(model),
+                                   seeds, 20), 20)  # fmt: skip
+    random = censored_pictures(
+        play(config, "free", 0.2, lambda: make_excitation("random"), seeds, 20), 20
+    )
+    assert agent <= random - 0.5, (agent, random)
