@@ -236,13 +236,14 @@ def make_vec_env(config: TrainConfig) -> Any:
 
 
 def evaluation_scenario(config: TrainConfig) -> tuple[EnvConfig, str, float]:
-    """What the progress display evaluates on: the run's scenario, or for ``mixed`` 10 robots
-    at one per square metre, 1 px of noise, no headings, free motion, 20 pictures."""
+    """What the progress display evaluates on: the run's scenario, or for ``mixed`` 14 robots
+    (a training N, none of the evaluation conditions') at one per square metre, 1 px of noise,
+    no headings, free motion, 20 pictures."""
     if config.condition != "mixed":
         return config.env_config(), config.condition, config.budget
-    side = 10**0.5
+    side = 14**0.5
     scenario = make_config(
-        n_robots=10,
+        n_robots=14,
         arena_size=(side, side),
         camera={"pixel_noise": 1.0, "orientation": False},
         max_cycles=401,
