@@ -13,6 +13,8 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.logger import CSVOutputFormat, Logger, make_output_format
 
+from agents.checkpoints import save_atomic
+
 
 class WallClockBudget(BaseCallback):
     """Stops training (after the current rollout) once ``minutes`` of wall time have passed."""
@@ -60,8 +62,6 @@ class AtomicCheckpoint(CheckpointCallback):
 
     def _on_step(self) -> bool:
         if self.n_calls % self.save_freq == 0:
-            from agents.train import save_atomic
-
             path = Path(self._checkpoint_path(extension="zip"))
             save_atomic(self.model, path)
             if self.verbose >= 2:  # pragma: no cover - SB3's own messages

@@ -27,8 +27,6 @@ import re
 import signal
 import threading
 import time
-import warnings
-import zipfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
 from agents.crew import CONDITIONS, REWARDS
 from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
@@ -415,60 +414,6 @@ def start_from_greedy(model: Any, vec_env: Any, config: TrainConfig) -> list[flo
         last.bias /= config.temperature
     vec_env.seed(config.seed)  # PPO's own episodes start from the run's seed again
     return agreement
-
-
-def checkpoint_path(directory: Path, steps: int) -> Path:
-    """Where the checkpoint after ``steps`` robot-steps lives."""
-    return directory / "checkpoints" / f"agent_{steps}_steps.zip"
-
-
-def save_atomic(model: Any, path: Path) -> Path:
-    """Save ``model`` to ``path`` through a temporary file: a reader (or a kill mid-save) sees
-    the old file or the new one, never half of one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.zip")
-    try:
-        model.save(tmp)
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-    return path
-
-
-def latest_checkpoint(directory: Path, *, notify: Callable[[str], None] | None = None) -> Path:
-    """The newest readable checkpoint of a run folder; damaged newer ones are skipped, each
-    with a message to ``notify`` (default: a warning)."""
-    found = sorted(
-        (directory / "checkpoints").glob("agent_*_steps.zip"),
-        key=lambda p: int(re.findall(r"\d+", p.stem)[-1]),
-    )
-    if not found:
-        raise FileNotFoundError(f"no checkpoint in {directory / 'checkpoints'} to resume from")
-    for newest in reversed(found):
-        problem = _zip_problem(newest)
-        if problem is None:
-            return newest
-        message = f"checkpoint {newest} is damaged ({problem}); trying the previous one"
-        if notify is None:
-            warnings.warn(message, stacklevel=2)
-        else:
-            notify(message)
-    raise FileNotFoundError(f"no readable checkpoint in {directory / 'checkpoints'}")
-
-
-def _zip_problem(path: Path) -> str | None:
-    """What is wrong with a saved model file, or None."""
-    try:
-        with zipfile.ZipFile(path) as archive:
-            bad = archive.testzip()
-            if bad is not None:
-                return f"member {bad} is corrupt"
-            if "data" not in archive.namelist():
-                return "not a saved model"
-    except (zipfile.BadZipFile, OSError, EOFError) as error:
-        return str(error) or type(error).__name__
-    return None
 
 
 @contextlib.contextmanager
