@@ -32,8 +32,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from agents.evaluation import censored, play
-from baselines.excitations import EXCITATIONS, Excitation
+from baselines.excitations import Excitation
 from baselines.limit import picture_limit
+from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import bootstrap_mean, pictures_to_identify
 from benchmarks.agent_conditions import evaluation_conditions
