@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from anonloc_env._checks import check_number
 from anonloc_env.config import EnvConfig
 
 #: The name under which the env is registered with ``ray.tune.registry.register_env``.
@@ -101,8 +102,9 @@ def _map_to_shared(agent_id: Any, episode: Any = None, **kwargs: Any) -> str:
 
 @dataclass(frozen=True)
 class PPOSettings:
-    """PPO's hyperparameters (the defaults are SB3's ``PPO`` defaults, so the two compare; an SB3
-    ``n_steps`` per slot is ``n_steps`` env steps here).
+    """PPO's hyperparameters, named as :class:`agents.train.TrainConfig` (SB3) names them; the
+    defaults are SB3's ``PPO`` defaults, so the two compare (an SB3 ``n_steps`` per slot is
+    ``n_steps`` env steps here). :func:`make_ppo_config` maps them to RLlib's names.
 
     Attributes:
         train_batch_size: env steps sampled per training iteration, >= 1 (RLlib counts a step
@@ -110,58 +112,44 @@ class PPOSettings:
             for each).
         minibatch_size: robot decisions per gradient step of the shared module, in
             [1, train_batch_size] (RLlib's bound).
-        num_epochs: passes over each train batch, >= 1.
-        lr: Adam learning rate, > 0.
-        gamma: discount per control step, in [0, 1].
-        lambda_: GAE lambda, in [0, 1].
-        clip_param: PPO ratio clip, > 0.
-        entropy_coeff: entropy bonus, >= 0.
-        hidden: width of the scorer's encodings (``CandidateScorer(hidden)``), >= 1.
+        n_epochs: passes over each train batch, >= 1 (RLlib's ``num_epochs``).
+        learning_rate: Adam step size, in (0, 1] (RLlib's ``lr``).
+        gamma: discount per decision, in [0, 1].
+        gae_lambda: GAE lambda, in [0, 1] (RLlib's ``lambda_``).
+        clip_range: PPO ratio clip, in (0, 10] (RLlib's ``clip_param``).
+        ent_coef: entropy bonus, in [0, 1e6] (RLlib's ``entropy_coeff``).
+        hidden: width of the scorer's encodings (``CandidateScorer(hidden)``), in [1, 4096].
         num_env_runners: Ray workers that sample (0: the driver samples), >= 0.
         rollout_fragment_length: env steps per env-runner sample call (``"auto"`` or >= 1).
     """
 
     train_batch_size: int = 2048
     minibatch_size: int = 64
-    num_epochs: int = 10
-    lr: float = 3e-4
+    n_epochs: int = 10
+    learning_rate: float = 3e-4
     gamma: float = 0.99
-    lambda_: float = 0.95
-    clip_param: float = 0.2
-    entropy_coeff: float = 0.0
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
     hidden: int = 64
     num_env_runners: int = 0
     rollout_fragment_length: int | str = "auto"
 
     def __post_init__(self) -> None:
-        _check_int("train_batch_size", self.train_batch_size, 1)
-        _check_int("minibatch_size", self.minibatch_size, 1)
-        if self.minibatch_size > self.train_batch_size:
-            raise ValueError(
-                f"minibatch_size must be in [1, train_batch_size={self.train_batch_size}], "
-                f"got {self.minibatch_size}"
-            )
-        _check_int("num_epochs", self.num_epochs, 1)
-        _check_int("num_env_runners", self.num_env_runners, 0)
-        for name, value, low, high in (
-            ("lr", self.lr, 0.0, math.inf),
-            ("clip_param", self.clip_param, 0.0, math.inf),
-        ):
-            if not (isinstance(value, (int, float)) and low < value < high):
-                raise ValueError(f"{name} must be > 0 and finite, got {value!r}")
-        for name, value in (("gamma", self.gamma), ("lambda_", self.lambda_)):
-            if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
-                raise ValueError(f"{name} must be in [0, 1], got {value!r}")
-        if not (isinstance(self.entropy_coeff, (int, float)) and 0 <= self.entropy_coeff < 1e9):
-            raise ValueError(f"entropy_coeff must be >= 0 and finite, got {self.entropy_coeff!r}")
-        _check_int("hidden", self.hidden, 1)
+        check_number("train_batch_size", self.train_batch_size, 1, 10**9, integer=True)
+        check_number("minibatch_size", self.minibatch_size, 1, self.train_batch_size, integer=True)
+        check_number("n_epochs", self.n_epochs, 1, 1000, integer=True)
+        check_number("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        check_number("gamma", self.gamma, 0.0, 1.0)
+        check_number("gae_lambda", self.gae_lambda, 0.0, 1.0)
+        check_number("clip_range", self.clip_range, 0.0, 10.0, low_open=True)
+        check_number("ent_coef", self.ent_coef, 0.0, 1e6)
+        check_number("hidden", self.hidden, 1, 4096, integer=True)
+        check_number("num_env_runners", self.num_env_runners, 0, 1024, integer=True)
         if self.rollout_fragment_length != "auto":
-            _check_int("rollout_fragment_length", self.rollout_fragment_length, 1)
-
-
-def _check_int(name: str, value: Any, low: int) -> None:
-    if not isinstance(value, int) or isinstance(value, bool) or value < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+            check_number(
+                "rollout_fragment_length", self.rollout_fragment_length, 1, 10**9, integer=True
+            )
 
 
 def make_ppo_config(
@@ -230,12 +218,12 @@ def make_ppo_config(
         .training(
             train_batch_size_per_learner=settings.train_batch_size,
             minibatch_size=settings.minibatch_size,
-            num_epochs=settings.num_epochs,
-            lr=settings.lr,
+            num_epochs=settings.n_epochs,
+            lr=settings.learning_rate,
             gamma=settings.gamma,
-            lambda_=settings.lambda_,
-            clip_param=settings.clip_param,
-            entropy_coeff=settings.entropy_coeff,
+            lambda_=settings.gae_lambda,
+            clip_param=settings.clip_range,
+            entropy_coeff=settings.ent_coef,
         )
         .learners(num_learners=0)
     )
@@ -301,7 +289,7 @@ def iteration_metrics(result: dict[str, Any], n_robots: int, seconds: float) -> 
 
 def train_iterations(algorithm: Any, iterations: int, n_robots: int) -> list[IterationMetrics]:
     """Run ``iterations`` training iterations of a built RLlib algorithm."""
-    _check_int("iterations", iterations, 1)
+    check_number("iterations", iterations, 1, 10**9, integer=True)
     metrics = []
     for _ in range(iterations):
         start = time.perf_counter()
@@ -333,9 +321,9 @@ def train_rllib(
             setting. One thread is about 4 times faster than torch's default on a busy 2-core
             machine: the networks are small and every step runs one.
     """
-    _check_int("iterations", iterations, 1)
+    check_number("iterations", iterations, 1, 10**9, integer=True)
     if torch_threads is not None:
-        _check_int("torch_threads", torch_threads, 1)
+        check_number("torch_threads", torch_threads, 1, 1024, integer=True)
     env_config = ppo_config.env_config.get("config")
     if not isinstance(env_config, EnvConfig):
         raise ValueError("ppo_config must come from make_ppo_config (its env_config has no config)")

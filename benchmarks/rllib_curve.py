@@ -124,7 +124,7 @@ def main() -> None:
     settings = PPOSettings(
         train_batch_size=args.batch,
         minibatch_size=args.minibatch,
-        num_epochs=args.epochs,
+        n_epochs=args.epochs,
         num_env_runners=args.env_runners,
         hidden=args.hidden,
     )

@@ -248,14 +248,16 @@ def test_the_module_refuses_other_spaces_by_name() -> None:
 def test_ppo_settings_are_validated() -> None:
     from agents.rllib import PPOSettings
 
-    with pytest.raises(ValueError, match=r"minibatch_size must be in \[1, train_batch_size=8\]"):
+    with pytest.raises(ValueError, match=r"minibatch_size must be in \[1, 8\], got 16"):
         PPOSettings(train_batch_size=8, minibatch_size=16)
     with pytest.raises(ValueError, match="gamma must be in"):
         PPOSettings(gamma=1.5)
-    with pytest.raises(ValueError, match="hidden must be an integer >= 1"):
+    with pytest.raises(ValueError, match=r"hidden must be in \[1, 4096\]"):
         PPOSettings(hidden=0)
-    with pytest.raises(ValueError, match="num_env_runners must be an integer >= 0"):
+    with pytest.raises(ValueError, match=r"num_env_runners must be in \[0, 1024\]"):
         PPOSettings(num_env_runners=-1)
+    with pytest.raises(ValueError, match=r"learning_rate must be in \(0, 1\]"):
+        PPOSettings(learning_rate=0.0)
 
 
 def test_export_refuses_what_it_cannot_convert(tmp_path: Path) -> None:
