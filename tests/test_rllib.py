@@ -315,7 +315,7 @@ def test_the_rllib_module_trains_two_iterations_and_acts_through_baselines_make(
     )
     from agents.rllib_module import CandidateRLModule
 
-    settings = PPOSettings(train_batch_size=12, minibatch_size=12, num_epochs=2, hidden=16)
+    settings = PPOSettings(train_batch_size=12, minibatch_size=12, n_epochs=2, hidden=16)
     algorithm = make_ppo_config(LONG, settings, seed=0).build_algo()
     monkeypatch.chdir(tmp_path)
     try:
@@ -378,7 +378,7 @@ def test_train_rllib_saves_to_a_relative_folder(
     from agents.rllib_module import CandidateRLModule
 
     monkeypatch.chdir(tmp_path)
-    settings = PPOSettings(train_batch_size=6, minibatch_size=6, num_epochs=1, hidden=8)
+    settings = PPOSettings(train_batch_size=6, minibatch_size=6, n_epochs=1, hidden=8)
     metrics = train_rllib(make_ppo_config(LONG, settings, seed=1), 1, "runs/rllib")
     assert [m.iteration for m in metrics] == [1]
     assert (tmp_path / "runs" / "rllib" / "learner_group" / "learner" / "rl_module").is_dir()
