@@ -187,10 +187,7 @@ class World:
         self._add_walls()
         self._bodies = bodies  # keeps the Python wrappers alive next to the C bodies
         self._check_body_order(bodies)
-        # A robot moves at most ``reach`` in a sub-step (corners included); with the pushes of
-        # a crowd, twice that is the sensor margin (see anonloc_env.separation).
-        reach = (robot.v_max + robot.omega_max * robot.radius) * self.substep_dt
-        self.separator = Separator(space, bodies, robot, margin=2.0 * reach)
+        self.separator = Separator(robot, self.n)
 
         # (N + 1, 2) forces and (N + 1, 5) states: robots first, the static body last (its row
         # stays zero: it sits at the origin, at rest).
@@ -202,18 +199,25 @@ class World:
         self._x, self._y, self._theta = self._state[: self.n, :3].T
         self._pose_rows = self._state[: self.n, :3]
         self._xy = self._state[: self.n, :2]
+        self._z = self._xy.view(np.complex128)[:, 0]  # x + iy
         # A numpy scalar: comparing an array with a Python float costs a conversion per call.
         self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
         self._inv_h = np.float64(1.0 / self.substep_dt)
-        half = robot.size / 2.0
-        self._wall_slack = _WALL_TOLERANCE * robot.size
         self._square = robot.shape == "square"
-        self._half = np.float64(half)
+        self._half = np.float64(robot.size / 2.0)
+        self._wall_slack = np.float64(_WALL_TOLERANCE * robot.size)
         width, height = config.arena_size
         self._x_max = np.float64(width)
         self._y_max = np.float64(height)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
+        self._state[: self.n, :3] = self.poses
+        # The unit headings exp(i theta) of the current poses and the arena limits of the
+        # centres at those headings (see _set_headings): both change only when robots turn.
+        self._low = np.empty(self.n)
+        self._x_high = np.empty(self.n)
+        self._y_high = np.empty(self.n)
+        self._set_headings()
 
     def _add_walls(self) -> None:
         width, height = self.config.arena_size
@@ -242,72 +246,67 @@ class World:
 
         Each sub-step: the command as a force, pymunk's step (contacts, velocity solve), then
         the move by the solved velocities, clamped to the arena, and the separation of the
-        robots that still overlap (see the module). The arithmetic works on 1-D columns: numpy
-        is slower on 2-D strided blocks and broadcasts than on a few more 1-D calls.
+        robots that still overlap (see the module). Positions are worked on as complex numbers
+        ``x + iy`` and headings as unit complex numbers (one ufunc per operation on both
+        coordinates), through views of the state array that goes back to pymunk.
         """
         h = self.substep_dt
-        fx, fy, inv_h = self._fx, self._fy, self._inv_h
-        forward, turned = [], []
-        worst = None  # per robot, largest gap between its displacement and its command
+        speed = v * self._inv_h  # the force that gives ``v`` in one sub-step (mass 1)
+        travel = v * h  # the free move along the heading in one sub-step
         turn = w * h
+        z, theta = self._z, self._theta
+        forward, turned = [], []
+        # Per robot and coordinate, the largest gap between a sub-step's move and its command.
+        worst = np.zeros((self.n, 2))
         for _ in range(self.substeps):
-            poses = self.poses
-            cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            speed = v * inv_h
-            np.multiply(speed, cos, out=fx)
-            np.multiply(speed, sin, out=fy)
+            heading = self._heading
+            np.multiply(speed, heading.real, out=self._fx)
+            np.multiply(speed, heading.imag, out=self._fy)
             self.batch.write_forces()
             self.space.step(h)
-            state = self.batch.read_state()  # (N, 5): corrected poses and solved velocities
-            x, y = self._x, self._y
-            np.multiply(state[:, 3], h, out=x)
-            x += state[:, 0]
-            np.multiply(state[:, 4], h, out=y)
-            y += state[:, 1]
-            np.add(state[:, 2], turn, out=self._theta)
+            state = self.batch.read_state()  # (N, 5): the poses as written, solved velocities
+            start = state[:, :2].view(np.complex128)[:, 0]
+            np.multiply(state[:, 3:].view(np.complex128)[:, 0], h, out=z)
+            z += start
+            np.add(state[:, 2], turn, out=theta)
+            self._set_headings()
             self._clamp_to_arena()
-            self.separator.separate(self._xy, self._theta, self._clamp_to_arena)
+            self.separator.separate(self._xy, self._heading, self._clamp_to_arena)
             self.batch.write_state()
-            new = self._pose_rows.copy()
-            delta = new - poses
+            moved = z - start
             # Wheel encoders see the displacement along the heading only.
-            along = delta[:, 0] * cos
-            along += delta[:, 1] * sin
-            forward.append(along)
-            turned.append(delta[:, 2])
-            # Free motion moves exactly by the commanded velocity; a contact pushes it off.
-            off_x = np.abs(delta[:, 0] - v * cos * h)
-            off_y = np.abs(delta[:, 1] - v * sin * h)
-            if worst is None:
-                worst = np.maximum(off_x, off_y)
-            else:
-                np.maximum(worst, off_x, out=worst)
-                np.maximum(worst, off_y, out=worst)
-            self.poses = new
-        assert worst is not None  # substeps >= 1
-        return WheelTravel(forward, turned, worst > self._bump_tolerance)
+            forward.append((moved * heading.conj()).real)
+            turned.append(theta - state[:, 2])
+            # Free motion moves exactly by the command; a contact pushes the robot off it.
+            moved -= travel * heading
+            np.maximum(worst, np.abs(moved.view(np.float64).reshape(-1, 2)), out=worst)
+        self.poses = self._pose_rows.copy()
+        return WheelTravel(forward, turned, worst.max(axis=1) > self._bump_tolerance)
 
-    def _clamp_to_arena(self) -> None:
-        """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces."""
-        x, y = self._x, self._y
+    def _set_headings(self) -> None:
+        """Unit headings ``exp(i theta)`` and the arena limits of the centres at them."""
+        self._heading = np.exp(1j * self._theta)
         if self._square:
-            theta = self._theta
-            c, s = np.abs(np.cos(theta)), np.abs(np.sin(theta))
-            extent = (c + s) * self._half
+            extent = np.abs(self._heading.real)
+            extent += np.abs(self._heading.imag)
+            extent *= self._half
         else:
             extent = np.full(self.n, self._half)
-        extent -= self._wall_slack
-        # Robots well inside the arena (almost all) are left alone: one check, then the clamp.
-        if (
-            (x < extent).any()
-            or (y < extent).any()
-            or (x + extent > self._x_max).any()
-            or (y + extent > self._y_max).any()
-        ):
-            np.maximum(x, extent, out=x)
-            np.minimum(x, self._x_max - extent, out=x)
-            np.maximum(y, extent, out=y)
-            np.minimum(y, self._y_max - extent, out=y)
+        np.subtract(extent, self._wall_slack, out=self._low)
+        np.subtract(self._x_max, self._low, out=self._x_high)
+        np.subtract(self._y_max, self._low, out=self._y_high)
+
+    def _clamp_to_arena(self) -> None:
+        """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces.
+
+        Clamping a centre that is inside its limits leaves it as it was (bit for bit), so every
+        robot is clamped, without a test first.
+        """
+        x, y, low = self._x, self._y, self._low
+        np.maximum(x, low, out=x)
+        np.minimum(x, self._x_high, out=x)
+        np.maximum(y, low, out=y)
+        np.minimum(y, self._y_high, out=y)
 
 
 class BodyBatch:

@@ -4,11 +4,10 @@ Each step, with the space settings and the solve-then-move order of ``anonloc_en
 the forces that ask for the commanded velocities from an ``(N, 2)`` command array and write them
 with ``pymunk.batch``, step the space once, read the poses and solved velocities back, move the
 robots by those velocities, push apart the robots that overlap (the world's own
-:class:`anonloc_env.separation.Separator`, with its sensor shapes in the space: solid robots are
-part of the design) and write the poses back (velocities zeroed), shuffle a picture every
-``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
-env's) from views of shared arrays. No validation, odometry, rewards, infos, schedule or wall
-clamp.
+:class:`anonloc_env.separation.Separator`: solid robots are part of the design) and write the
+poses back (velocities zeroed), shuffle a picture every ``steps_per_picture`` steps, and build
+every agent's observation dict (the same keys as the env's) from views of shared arrays. No
+validation, odometry, rewards, infos, schedule or wall clamp.
 
 The env cannot be faster than this; ``bench_env.py`` reports the env's speed as a fraction of it.
 """
@@ -51,8 +50,7 @@ class LimitLoop:
             wall = pymunk.Segment(self.space.static_body, a, b, r)
             wall.filter = SOLID
             self.space.add(wall)
-        reach = (robot.v_max + robot.omega_max * robot.radius) * dt
-        self.separator = Separator(self.space, bodies, robot, margin=2.0 * reach)
+        self.separator = Separator(robot, n)
         buf = pmb.Buffer()
         pmb.get_space_bodies(self.space, pmb.BodyFields.BODY_ID, buf)
         ids = np.frombuffer(buf.int_buf(), dtype=np.uintp)
@@ -87,7 +85,8 @@ class LimitLoop:
         state = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 5)[:n]
         self.state[:n, :2] = state[:, :2] + state[:, 3:] * self.dt
         self.state[:n, 2] = state[:, 2] + commands[:, 1] * self.dt
-        self.separator.separate(self.state[:n, :2], self.state[:n, 2], _no_clamp)
+        heading = np.exp(1j * self.state[:n, 2])
+        self.separator.separate(self.state[:n, :2], heading, _no_clamp)
         pmb.set_space_bodies(self.space, fields, self.state_buf)
         self.poses = self.state[:n, :3].copy()
         self.steps += 1
