@@ -55,6 +55,8 @@ MAX_PROJECTIONS = 100
 SKIN = 2.0
 #: How far (fraction of the size) beyond the circles around two robots a pair is projected.
 CLOSE_MARGIN = 0.1
+#: The largest element of an array (``ndarray.max`` goes through a Python wrapper first).
+_MAX = np.maximum.reduce
 #: The shape filter of robots and walls (they collide with each other).
 SOLID = pymunk.ShapeFilter(categories=0b01, mask=0b01)
 
@@ -74,21 +76,26 @@ class Separator:
         self.half = robot.size / 2.0
         self.allowed = ALLOWED_OVERLAP * robot.size
         self.stop = (STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size
-        # Two robots can overlap only if the circles around their shapes meet; the pairs within
-        # a margin of that are projected, so that a projection that moves no robot further than
-        # half the margin cannot have pushed one into a pair left out.
+        # A pair overlaps by more than the stop only if its reach (the distance of the centres
+        # in the robots' frames: see near) is below this: for squares, their reach at 45 degrees
+        # of each other, the largest.
+        if self.square:
+            self._overlap_reach = np.float64(
+                self.half * (1.0 + math.sqrt(2.0)) - self.allowed - self.stop
+            )
+        else:
+            self._overlap_reach = np.float64(self.size - self.allowed - self.stop)
+        # The pairs within a margin of that are projected, so that a projection that moves no
+        # robot further than half the margin cannot have pushed one into a pair left out.
+        self._near_reach = self._overlap_reach + CLOSE_MARGIN * robot.size
+        # The neighbour list holds every pair whose circles around the shapes were closer than
+        # the skin: until a robot has moved half the skin, no other pair can even touch.
         meet = 2.0 * robot.radius if self.square else robot.size
-        self._close = np.float64(meet + CLOSE_MARGIN * robot.size)
-        self._reach = meet + SKIN * robot.size
+        self._list_reach = meet + SKIN * robot.size
         # Moves along each axis small enough that no robot moved further than half the skin
-        # (or the close margin): a sufficient test that needs no square root.
+        # (or the margin): a sufficient test that needs no square root.
         self._stale = np.float64(SKIN * robot.size / 2.0 / math.sqrt(2.0))
         self._drift = np.float64(CLOSE_MARGIN * robot.size / 2.0 / math.sqrt(2.0))
-        # No pair overlaps by more than the stop unless, in both robots' frames, both coordinates
-        # of the offset of their centres are below this (the reach at 45 degrees, the largest).
-        self._frame_limit = np.float64(
-            self.half * (1.0 + math.sqrt(2.0)) - self.allowed - self.stop
-        )
         self._anchor: np.ndarray | None = None  # positions (x + iy) when the list was built
         self._pairs = np.zeros((0, 2), dtype=np.intp)
         self.rebuilds = 0
@@ -101,12 +108,25 @@ class Separator:
         anchor = self._anchor
         if anchor is None or not _moved(z, anchor) <= self._stale:
             xy = np.column_stack((z.real, z.imag))
-            i, j, _ = pairs_within(xy, xy, self._reach)
+            i, j, _ = pairs_within(xy, xy, self._list_reach)
             keep = i < j
             self._pairs = np.column_stack((i[keep], j[keep]))
             self._anchor = z.copy()
             self.rebuilds += 1
         return self._pairs
+
+    def reach(self, z: np.ndarray, heading: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+        """``(P,)`` how far apart each pair's centres are, as the separating axes see it: for
+        squares the largest coordinate of the offset in either robot's frame (below the overlap
+        reach for every pair that overlaps by more than the stop), for circles the distance."""
+        ends = z[pairs]
+        d = ends[:, 1] - ends[:, 0]
+        if not self.square:
+            return np.abs(d)
+        extent = np.abs((d[:, None] * heading[pairs].conj()).view(np.float64))  # (P, 4)
+        # Two elementwise maxima: a reduction along a short axis costs more than the work.
+        wider = np.maximum(extent[:, :2], extent[:, 2:])
+        return np.maximum(wider[:, 0], wider[:, 1])
 
     def separate(self, xy: np.ndarray, heading: np.ndarray, clamp: Callable[[], None]) -> None:
         """Push overlapping robots apart in place, keeping them inside the arena.
@@ -122,12 +142,11 @@ class Separator:
         left = MAX_PROJECTIONS
         while left > 0:
             pairs = self.neighbours(z)
-            ends = z[pairs]
-            near = np.abs(ends[:, 1] - ends[:, 0]) < self._close
-            if not near.any():
-                return
+            reach = self.reach(z, heading, pairs)
+            if not (reach < self._overlap_reach).any():
+                return  # most sub-steps end here
             start = z.copy()
-            done = self._project(z, heading, pairs[near], clamp, left)
+            done = self._project(z, heading, pairs[reach < self._near_reach], clamp, left)
             if done == 0 or _moved(z, start) <= self._drift:
                 return  # every pair that can overlap was among those projected
             left -= done
@@ -144,15 +163,9 @@ class Separator:
         than the stop; returns how many were made."""
         i, j = pairs.T
         if self.square:
-            frames = headings[pairs].conj()  # (P, 2)
-            # Most sub-steps end here: no pair is near enough in both frames to overlap.
-            d = z[j] - z[i]
-            if not (
-                np.abs((d[:, None] * frames).view(np.float64)).max(axis=1) < self._frame_limit
-            ).any():
-                return 0
-            heading_i, heading_j = frames.conj().T
-            twist = heading_j * frames[:, 0]  # exp(i (theta_j - theta_i))
+            heading = headings[pairs]  # (P, 2)
+            frames = heading.conj()
+            twist = heading[:, 1] * frames[:, 0]  # exp(i (theta_j - theta_i))
             # What the pair may overlap before it is pushed: its reach less the allowed overlap.
             limit = self.half * (1.0 + np.abs(twist.real) + np.abs(twist.imag)) - self.allowed
         else:
@@ -167,17 +180,18 @@ class Separator:
             else:
                 dist = np.abs(d)
                 push = limit - dist
-            if not push.max() > self.stop:
+            if not _MAX(push) > self.stop:
                 return done
             if rows is None:
-                rows = np.arange(len(i))
+                rows = np.arange(len(pairs))
                 # Real and imaginary parts of the moves of i, then of j, summed per robot in
                 # one bincount over the interleaved coordinates.
                 slots = np.concatenate((i, j)) * 2
                 slots = np.column_stack((slots, slots + 1)).ravel()
                 if self.square:
                     # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
-                    axes = np.column_stack((heading_i, 1j * heading_i, heading_j, 1j * heading_j))
+                    axes = np.repeat(heading, 2, axis=1)
+                    axes[:, 1::2] *= 1j
             if self.square:
                 best = extent.argmax(axis=1)
                 along = coords[rows, best]
@@ -195,4 +209,4 @@ class Separator:
 
 def _moved(z: np.ndarray, before: np.ndarray) -> np.float64:
     """The largest move of a robot along either axis from ``before`` to ``z`` (both ``x + iy``)."""
-    return np.abs((z - before).view(np.float64)).max()
+    return _MAX(np.abs((z - before).view(np.float64)))

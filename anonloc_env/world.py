@@ -8,8 +8,12 @@ Design notes:
 
 * Bodies are dynamic with infinite moment: collisions push robots (a robot can shove another) but
   never spin them; headings change only by the commanded turn rate.
-* Velocities are written and poses read for all bodies at once with ``pymunk.batch``'s C
-  iterators (no per-body Python loop on the step path; see :class:`BodyBatch`).
+* Poses, velocities and forces are written and states read for all bodies at once with
+  ``pymunk.batch``'s C iterators, one write and one read per sub-step (no per-body Python loop
+  on the step path; see :class:`BodyBatch`). The poses live in numpy between sub-steps: they
+  are written to the bodies at the start of the next one, with its forces (so between two
+  ``step`` calls the bodies still hold the last sub-step's start and solved velocities;
+  :attr:`World.poses` is the truth).
   ``cpSpaceEachBody`` visits the robots in the order they were added and the space's static body
   last; the order is checked once when the world is built.
 * Solve, then move. pymunk integrates positions at the start of a step with the velocities its
@@ -19,14 +23,18 @@ Design notes:
   of a size and a long column pushed into a wall passed through it). So each sub-step asks for
   the command through the force that gives it in one sub-step (``damping = 0`` so the velocity
   is exactly ``f * h``), lets pymunk detect contacts and solve the velocities against them, and
-  then moves every robot by its *solved* velocity itself (positions written back, velocities
-  zeroed so that pymunk's own next integration moves nothing).
+  then moves every robot by its *solved* velocity itself (positions written back with zero
+  velocities at the next sub-step, so that pymunk's own integration moves nothing).
 * Solid robots: after the move, :class:`anonloc_env.separation.Separator` pushes apart the
   robots that still overlap (pymunk's solver does not converge in a wedged crowd, does not see
   turns, and sees a new contact only a sub-step late) until no pair overlaps by more than 3 % of
   the size (a bounded number of projections; see that module). pymunk's own position correction
-  is off: it would correct the same overlaps a second time. Candidate pairs come from sensor
-  shapes in pymunk's broad phase.
+  is off: it would correct the same overlaps a second time. Candidate pairs come from a numpy
+  neighbour list, rebuilt every few steps; a sub-step in which no pair is close costs a few
+  numpy calls.
+* Positions are handled as complex numbers ``x + iy`` and headings as unit complex numbers
+  ``exp(i theta)``, computed once per sub-step and shared by the forces, the odometry, the
+  wall limits and the separation: one ufunc per operation on both coordinates.
 * The walls are also a hard limit: after every sub-step a robot is clamped so that its shape
   reaches at most ``_WALL_TOLERANCE`` of its size into a wall, whatever the push. No robot ever
   leaves the arena, in any configuration.
@@ -51,8 +59,8 @@ from anonloc_env.separation import SOLID, Separator
 #: its size was pushed or blocked by a contact: its bumper fires.
 _BUMP_TOLERANCE = 1e-9
 # Flag unions built once: combining enum flags costs microseconds per call.
-_FORCE_FIELDS = pmb.BodyFields.FORCE
 _STATE_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE | pmb.BodyFields.VELOCITY
+_WRITE_FIELDS = _STATE_FIELDS | pmb.BodyFields.FORCE
 #: One ``(x, y, theta, vx, vy)`` row: ``np.frombuffer`` with it gives ``(N, 5)`` arrays directly.
 _STATE = np.dtype((np.float64, 5))
 #: pymunk's solver iterations per sub-step (its default, 10).
@@ -189,13 +197,12 @@ class World:
         self._check_body_order(bodies)
         self.separator = Separator(robot, self.n)
 
-        # (N + 1, 2) forces and (N + 1, 5) states: robots first, the static body last (its row
-        # stays zero: it sits at the origin, at rest).
-        self._force = np.zeros((self.n + 1, 2), dtype=np.float64)
-        self._state = np.zeros((self.n + 1, 5), dtype=np.float64)
-        self.batch = BodyBatch(space, self._force, self._state, self.n)
+        # (N + 1, 7) rows (x, y, theta, vx, vy, fx, fy): robots first, the static body last (its
+        # row stays zero: it sits at the origin, at rest). The velocities stay zero.
+        self._state = np.zeros((self.n + 1, 7), dtype=np.float64)
+        self.batch = BodyBatch(space, self._state, self.n)
         # Views of the robots' columns, made once; ufuncs write into them.
-        self._fx, self._fy = self._force[: self.n].T
+        self._fx, self._fy = self._state[: self.n, 5:].T
         self._x, self._y, self._theta = self._state[: self.n, :3].T
         self._pose_rows = self._state[: self.n, :3]
         self._xy = self._state[: self.n, :2]
@@ -206,17 +213,14 @@ class World:
         self._square = robot.shape == "square"
         self._half = np.float64(robot.size / 2.0)
         self._wall_slack = np.float64(_WALL_TOLERANCE * robot.size)
-        width, height = config.arena_size
-        self._x_max = np.float64(width)
-        self._y_max = np.float64(height)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
         self._state[: self.n, :3] = self.poses
         # The unit headings exp(i theta) of the current poses and the arena limits of the
         # centres at those headings (see _set_headings): both change only when robots turn.
-        self._low = np.empty(self.n)
-        self._x_high = np.empty(self.n)
-        self._y_high = np.empty(self.n)
+        self._arena = np.array(config.arena_size, dtype=np.float64)
+        self._low = np.empty((self.n, 1))
+        self._high = np.empty((self.n, 2))
         self._set_headings()
 
     def _add_walls(self) -> None:
@@ -262,7 +266,7 @@ class World:
             heading = self._heading
             np.multiply(speed, heading.real, out=self._fx)
             np.multiply(speed, heading.imag, out=self._fy)
-            self.batch.write_forces()
+            self.batch.write()
             self.space.step(h)
             state = self.batch.read_state()  # (N, 5): the poses as written, solved velocities
             start = state[:, :2].view(np.complex128)[:, 0]
@@ -272,7 +276,6 @@ class World:
             self._set_headings()
             self._clamp_to_arena()
             self.separator.separate(self._xy, self._heading, self._clamp_to_arena)
-            self.batch.write_state()
             moved = z - start
             # Wheel encoders see the displacement along the heading only.
             forward.append((moved * heading.conj()).real)
@@ -292,9 +295,8 @@ class World:
             extent *= self._half
         else:
             extent = np.full(self.n, self._half)
-        np.subtract(extent, self._wall_slack, out=self._low)
-        np.subtract(self._x_max, self._low, out=self._x_high)
-        np.subtract(self._y_max, self._low, out=self._y_high)
+        np.subtract(extent, self._wall_slack, out=self._low[:, 0])
+        np.subtract(self._arena, self._low, out=self._high)
 
     def _clamp_to_arena(self) -> None:
         """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces.
@@ -302,15 +304,13 @@ class World:
         Clamping a centre that is inside its limits leaves it as it was (bit for bit), so every
         robot is clamped, without a test first.
         """
-        x, y, low = self._x, self._y, self._low
-        np.maximum(x, low, out=x)
-        np.minimum(x, self._x_high, out=x)
-        np.maximum(y, low, out=y)
-        np.minimum(y, self._y_high, out=y)
+        xy = self._xy
+        np.maximum(xy, self._low, out=xy)
+        np.minimum(xy, self._high, out=xy)
 
 
 class BodyBatch:
-    """Forces of every body in, states of the robots out, poses back in: one C call each.
+    """Poses and forces of every body in, states of the robots out: one C call each.
 
     ``pymunk.batch.set_space_bodies`` and ``get_space_bodies`` build a ``pmBatchedData`` struct
     and read an enum at every call, which costs more than their C work for a hundred robots.
@@ -321,26 +321,15 @@ class BodyBatch:
 
     Args:
         space: the pymunk space.
-        force: ``(B, 2)`` float64 array, one ``(fx, fy)`` row per body of ``space`` in
-            ``cpSpaceEachBody`` order; :meth:`write_forces` sends it to the bodies.
-        state: ``(B, 5)`` float64 array of ``(x, y, theta, vx, vy)`` rows in the same order;
-            :meth:`write_state` sends it to the bodies.
+        state: ``(B, 7)`` float64 array of ``(x, y, theta, vx, vy, fx, fy)`` rows, one per body
+            of ``space`` in ``cpSpaceEachBody`` order; :meth:`write` sends it to the bodies.
         n: number of leading bodies (the robots) whose states :meth:`read_state` returns.
         fast: try the direct C calls (False: always use ``pymunk.batch``).
     """
 
-    def __init__(
-        self,
-        space: pymunk.Space,
-        force: np.ndarray,
-        state: np.ndarray,
-        n: int,
-        fast: bool = True,
-    ):
+    def __init__(self, space: pymunk.Space, state: np.ndarray, n: int, fast: bool = True):
         self.space = space
         self.n = n
-        self._force_buffer = pmb.Buffer()
-        self._force_buffer.set_float_buf(force.reshape(-1))
         self._state_buffer = pmb.Buffer()
         self._state_buffer.set_float_buf(state.reshape(-1))
         self._get_buffer = pmb.Buffer()
@@ -360,8 +349,7 @@ class BodyBatch:
                 name = f"pmSpaceBody{kind}IteratorFuncBatched"
                 return (self.space._space, ffi.addressof(lib, name), data)
 
-            self._force_call = call(self._force_buffer, _FORCE_FIELDS, True)
-            self._state_call = call(self._state_buffer, _STATE_FIELDS, True)
+            self._state_call = call(self._state_buffer, _WRITE_FIELDS, True)
             self._get_call = call(self._get_buffer, _STATE_FIELDS, False)
             self._each_body = lib.cpSpaceEachBody
             self._ffi = ffi
@@ -387,13 +375,9 @@ class BodyBatch:
         self._each_body(*call)
         array.num = size
 
-    def write_forces(self) -> None:
-        """Set every body's force from the ``force`` array."""
-        self._set(self._force_buffer, _FORCE_FIELDS, self._force_call if self.fast else ())
-
-    def write_state(self) -> None:
-        """Set every body's position, angle and velocity from the ``state`` array."""
-        self._set(self._state_buffer, _STATE_FIELDS, self._state_call if self.fast else ())
+    def write(self) -> None:
+        """Set every body's position, angle, velocity and force from the ``state`` array."""
+        self._set(self._state_buffer, _WRITE_FIELDS, self._state_call if self.fast else ())
 
     def read_state(self) -> np.ndarray:
         """A view ``(n, 5)`` of the robots' ``(x, y, theta, vx, vy)``, valid until the next read."""
