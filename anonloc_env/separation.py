@@ -14,7 +14,7 @@ solver still stops robots at their contacts.
 
 Candidate pairs come from a Verlet neighbour list, not from pymunk: every pair of robots whose
 centres were within ``2 * radius + skin`` when the list was built (a numpy grid search,
-:func:`anonloc_env.neighbours.pairs_within`). While no robot has moved more than ``skin / 2`` since
+:func:`pairs_within_self`). While no robot has moved more than ``skin / 2`` since
 then, every pair that can overlap (centres closer than ``2 * radius``: the circles around the
 shapes meet) is on the list; a robot that moved further triggers a rebuild, which happens every
 few steps (robots move a fraction of their size per sub-step). Each sub-step then costs a few
@@ -41,7 +41,7 @@ import numpy as np
 import pymunk
 
 from anonloc_env.config import RobotConfig
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.neighbours import expand_ranges
 
 #: Overlap (fraction of the size) that a projection leaves between two robots: a contact that
 #: pymunk still sees, so that its solver keeps stopping the robots there.
@@ -102,15 +102,11 @@ class Separator:
         """How many times the neighbour list was built."""
 
     def neighbours(self, z: np.ndarray) -> np.ndarray:
-        """The neighbour list: ``(P, 2)`` rows ``(i, j)``, ``i < j``, sorted by ``i`` then ``j``,
-        rebuilt first if a robot moved too far since it was built; ``z`` are the positions
-        ``x + iy``."""
+        """The neighbour list: ``(P, 2)`` rows ``(i, j)``, ``i < j``, rebuilt first if a robot
+        moved too far since it was built; ``z`` are the positions ``x + iy``."""
         anchor = self._anchor
         if anchor is None or not _moved(z, anchor) <= self._stale:
-            xy = np.column_stack((z.real, z.imag))
-            i, j, _ = pairs_within(xy, xy, self._list_reach)
-            keep = i < j
-            self._pairs = np.column_stack((i[keep], j[keep]))
+            self._pairs = pairs_within_self(z, self._list_reach)
             self._anchor = z.copy()
             self.rebuilds += 1
         return self._pairs
@@ -205,6 +201,39 @@ class Separator:
             z += np.bincount(slots, moves, 2 * self.n).view(np.complex128)
             clamp()
         return most
+
+
+def pairs_within_self(z: np.ndarray, radius: float) -> np.ndarray:
+    """Every pair of points ``z`` (``x + iy``) at most ``radius`` apart, once: ``(P, 2)`` rows
+    ``(i, j)`` with ``i < j``, in an order that depends on the points alone.
+
+    A uniform grid with cells ``radius`` wide, as :func:`anonloc_env.neighbours.pairs_within`,
+    but each point looks only forward (the rest of its own cell, the cell above, and the three
+    cells of the next column: two ranges of consecutive keys), so each pair is found once.
+    """
+    n = len(z)
+    if n < 2:
+        return np.zeros((0, 2), dtype=np.intp)
+    x, y = z.real, z.imag
+    column = np.floor((x - x.min()) / radius).astype(np.intp)
+    row = np.floor((y - y.min()) / radius).astype(np.intp) + 1  # a free row below the lowest
+    stride = int(row.max()) + 2  # and one above the highest
+    key = column * stride + row
+    order = np.argsort(key, kind="stable")
+    keys = key[order]
+    position = np.arange(n)
+    # Same column: the points after this one in sorted order, up to the end of the cell above.
+    same_end = np.searchsorted(keys, keys + 1, side="right")
+    # Next column: the cells beside, below-beside and above-beside.
+    next_start = np.searchsorted(keys, keys + (stride - 1), side="left")
+    next_end = np.searchsorted(keys, keys + (stride + 1), side="right")
+    starts = np.concatenate((position + 1, next_start))
+    counts = np.concatenate((same_end - position - 1, next_end - next_start))
+    first = np.repeat(np.concatenate((order, order)), counts)
+    second = order[expand_ranges(starts, counts)]
+    near = np.abs(z[second] - z[first]) <= radius
+    first, second = first[near], second[near]
+    return np.column_stack((np.minimum(first, second), np.maximum(first, second)))
 
 
 def _moved(z: np.ndarray, before: np.ndarray) -> np.float64:

@@ -219,6 +219,9 @@ class World:
         # The unit headings exp(i theta) of the current poses and the arena limits of the
         # centres at those headings (see _set_headings): both change only when robots turn.
         self._arena = np.array(config.arena_size, dtype=np.float64)
+        # Two buffers, swapped at each turn: a sub-step still reads the headings it started with.
+        self._heading = np.empty(self.n, dtype=np.complex128)
+        self._spare_heading = np.empty(self.n, dtype=np.complex128)
         self._low = np.empty((self.n, 1))
         self._high = np.empty((self.n, 2))
         self._set_headings()
@@ -288,10 +291,14 @@ class World:
 
     def _set_headings(self) -> None:
         """Unit headings ``exp(i theta)`` and the arena limits of the centres at them."""
-        self._heading = np.exp(1j * self._theta)
+        heading = self._spare_heading
+        self._spare_heading = self._heading
+        self._heading = heading
+        np.cos(self._theta, out=heading.real)
+        np.sin(self._theta, out=heading.imag)
         if self._square:
-            extent = np.abs(self._heading.real)
-            extent += np.abs(self._heading.imag)
+            extent = np.abs(heading.real)
+            extent += np.abs(heading.imag)
             extent *= self._half
         else:
             extent = np.full(self.n, self._half)

@@ -7,7 +7,7 @@ import pytest
 
 from anonloc_env.config import RobotConfig
 from anonloc_env.overlap import robot_overlaps
-from anonloc_env.separation import SKIN, STOP_OVERLAP, Separator
+from anonloc_env.separation import SKIN, STOP_OVERLAP, Separator, pairs_within_self
 
 
 def _separate(separator: Separator, poses: np.ndarray) -> None:
@@ -66,3 +66,23 @@ def test_a_pile_is_separated_to_the_stop_overlap() -> None:
     assert _worst_overlap(robot, poses) > 0.5 * robot.size
     _separate(Separator(robot, 60), poses)
     assert _worst_overlap(robot, poses) <= STOP_OVERLAP * robot.size
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pairs_within_self_finds_every_close_pair_once(seed: int) -> None:
+    """Against all pairs by brute force: points on cell edges, repeated points, one column."""
+    rng = np.random.default_rng(seed)
+    radius = 0.5
+    points = rng.uniform(-3.0, 3.0, (300, 2))
+    points[:20] = np.round(points[:20] / radius) * radius  # on the grid's edges
+    points[20:30] = points[30]  # ten copies of one point
+    points[40:60, 0] = 1.0  # a column
+    z = points[:, 0] + 1j * points[:, 1]
+    found = pairs_within_self(z, radius)
+    assert np.all(found[:, 0] < found[:, 1])
+    i, j = np.triu_indices(len(z), k=1)
+    close = np.abs(z[j] - z[i]) <= radius
+    expected = set(zip(i[close].tolist(), j[close].tolist(), strict=True))
+    assert len(found) == len(expected)
+    assert set(map(tuple, found.tolist())) == expected
+    assert len(pairs_within_self(z[:1], radius)) == 0
