@@ -53,7 +53,7 @@ MAX_PROJECTIONS = 100
 #: How far (fraction of the size) beyond the circles around two robots the neighbour list
 #: reaches: the list is rebuilt once a robot has moved half of it.
 SKIN = 2.0
-#: How far (fraction of the size) beyond the circles around two robots a pair is projected.
+#: How far (fraction of the size) two robots may miss each other and still be projected.
 CLOSE_MARGIN = 0.1
 #: The largest element of an array (``ndarray.max`` goes through a Python wrapper first).
 _MAX = np.maximum.reduce
@@ -75,19 +75,11 @@ class Separator:
         self.size = robot.size
         self.half = robot.size / 2.0
         self.allowed = ALLOWED_OVERLAP * robot.size
-        self.stop = (STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size
-        # A pair overlaps by more than the stop only if its reach (the distance of the centres
-        # in the robots' frames: see near) is below this: for squares, their reach at 45 degrees
-        # of each other, the largest.
-        if self.square:
-            self._overlap_reach = np.float64(
-                self.half * (1.0 + math.sqrt(2.0)) - self.allowed - self.stop
-            )
-        else:
-            self._overlap_reach = np.float64(self.size - self.allowed - self.stop)
-        # The pairs within a margin of that are projected, so that a projection that moves no
-        # robot further than half the margin cannot have pushed one into a pair left out.
-        self._near_reach = self._overlap_reach + CLOSE_MARGIN * robot.size
+        self.stop = np.float64((STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size)
+        # The pairs that overlap, or miss by less than a margin, are projected: a projection
+        # that moves no robot further than half the margin cannot push one into a pair left
+        # out (along any axis, the pair's centres get at most the margin closer).
+        self._margin = np.float64(-CLOSE_MARGIN * robot.size)
         # The neighbour list holds every pair whose circles around the shapes were closer than
         # the skin: until a robot has moved half the skin, no other pair can even touch.
         meet = 2.0 * robot.radius if self.square else robot.size
@@ -111,19 +103,6 @@ class Separator:
             self.rebuilds += 1
         return self._pairs
 
-    def reach(self, z: np.ndarray, heading: np.ndarray, pairs: np.ndarray) -> np.ndarray:
-        """``(P,)`` how far apart each pair's centres are, as the separating axes see it: for
-        squares the largest coordinate of the offset in either robot's frame (below the overlap
-        reach for every pair that overlaps by more than the stop), for circles the distance."""
-        ends = z[pairs]
-        d = ends[:, 1] - ends[:, 0]
-        if not self.square:
-            return np.abs(d)
-        extent = np.abs((d[:, None] * heading[pairs].conj()).view(np.float64))  # (P, 4)
-        # Two elementwise maxima: a reduction along a short axis costs more than the work.
-        wider = np.maximum(extent[:, :2], extent[:, 2:])
-        return np.maximum(wider[:, 0], wider[:, 1])
-
     def separate(self, xy: np.ndarray, heading: np.ndarray, clamp: Callable[[], None]) -> None:
         """Push overlapping robots apart in place, keeping them inside the arena.
 
@@ -138,62 +117,85 @@ class Separator:
         left = MAX_PROJECTIONS
         while left > 0:
             pairs = self.neighbours(z)
-            reach = self.reach(z, heading, pairs)
-            if not (reach < self._overlap_reach).any():
+            if len(pairs) == 0:
+                return
+            frames = heading[pairs].conj() if self.square else None
+            limit = self._limit(frames)
+            push = limit - self._extent(z, pairs, frames)[0]
+            if not _MAX(push) > self.stop:
                 return  # most sub-steps end here
+            near = push > self._margin
+            if frames is not None and isinstance(limit, np.ndarray):  # squares
+                frames, limit = frames[near], limit[near]
             start = z.copy()
-            done = self._project(z, heading, pairs[reach < self._near_reach], clamp, left)
-            if done == 0 or _moved(z, start) <= self._drift:
+            done = self._project(z, pairs[near], frames, limit, clamp, left)
+            if _moved(z, start) <= self._drift:
                 return  # every pair that can overlap was among those projected
             left -= done
+
+    def _limit(self, frames: np.ndarray | None) -> np.ndarray | np.float64:
+        """What each pair may reach into the other before it is pushed: for squares ``h (1 +
+        |cos a| + |sin a|)`` (``a`` the difference of headings, from the pairs' ``(P, 2)``
+        conjugate headings ``frames``) less the allowed overlap."""
+        if frames is None:
+            return np.float64(self.size - self.allowed)
+        twist = frames[:, 0] * frames[:, 1].conj()  # exp(i (theta_j - theta_i))
+        both = np.abs(twist.view(np.float64)).reshape(-1, 2)
+        reach = both[:, 0] + both[:, 1]
+        reach *= self.half
+        reach += self.half - self.allowed
+        return reach
+
+    def _extent(
+        self, z: np.ndarray, pairs: np.ndarray, frames: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """How far apart each pair's centres are along its separating axes: the largest, the
+        coordinates (``(P, 4)``: the offset in both frames) and their sizes (circles: the
+        distance, the offset ``(P,)`` complex and the distance again)."""
+        ends = z[pairs]
+        d = ends[:, 1] - ends[:, 0]
+        if frames is None:
+            dist = np.abs(d)
+            return dist, d, dist
+        coords = (d[:, None] * frames).view(np.float64)  # (P, 4)
+        extent = np.abs(coords)
+        # Two elementwise maxima: a reduction along a short axis costs more than the work.
+        wider = np.maximum(extent[:, :2], extent[:, 2:])
+        return np.maximum(wider[:, 0], wider[:, 1]), coords, extent
 
     def _project(
         self,
         z: np.ndarray,
-        headings: np.ndarray,
         pairs: np.ndarray,
+        frames: np.ndarray | None,
+        limit: np.ndarray | np.float64,
         clamp: Callable[[], None],
         most: int,
     ) -> int:
-        """Up to ``most`` projections of ``pairs`` (rows ``(i, j)``), until none overlaps by more
-        than the stop; returns how many were made."""
-        i, j = pairs.T
-        if self.square:
-            heading = headings[pairs]  # (P, 2)
-            frames = heading.conj()
-            twist = heading[:, 1] * frames[:, 0]  # exp(i (theta_j - theta_i))
-            # What the pair may overlap before it is pushed: its reach less the allowed overlap.
-            limit = self.half * (1.0 + np.abs(twist.real) + np.abs(twist.imag)) - self.allowed
-        else:
-            limit = np.float64(self.size - self.allowed)
-        rows = None  # the projections' arrays, built at the first one
+        """Up to ``most`` projections of ``pairs`` (rows ``(i, j)``; their conjugate headings
+        ``frames`` and reach ``limit``), until none overlaps by more than the stop; returns how
+        many were made."""
+        rows = np.arange(len(pairs))
+        # Real and imaginary parts of the moves of i, then of j, summed per robot in one
+        # bincount over the interleaved coordinates.
+        slots = pairs.T.ravel() * 2
+        slots = np.column_stack((slots, slots + 1)).ravel()
+        if frames is not None:
+            # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
+            axes = np.repeat(frames.conj(), 2, axis=1)
+            axes[:, 1::2] *= 1j
         for done in range(most):
-            d = z[j] - z[i]
-            if self.square:
-                coords = (d[:, None] * frames).view(np.float64)  # (P, 4): d in both frames
-                extent = np.abs(coords)
-                push = limit - extent.max(axis=1)
-            else:
-                dist = np.abs(d)
-                push = limit - dist
+            largest, coords, extent = self._extent(z, pairs, frames)
+            push = limit - largest
             if not _MAX(push) > self.stop:
                 return done
-            if rows is None:
-                rows = np.arange(len(pairs))
-                # Real and imaginary parts of the moves of i, then of j, summed per robot in
-                # one bincount over the interleaved coordinates.
-                slots = np.concatenate((i, j)) * 2
-                slots = np.column_stack((slots, slots + 1)).ravel()
-                if self.square:
-                    # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
-                    axes = np.repeat(heading, 2, axis=1)
-                    axes[:, 1::2] *= 1j
-            if self.square:
+            if frames is not None:
                 best = extent.argmax(axis=1)
                 along = coords[rows, best]
                 normal = axes[rows, best] * np.where(along < 0.0, -0.5, 0.5)
             else:
-                normal = np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 1.0) * 0.5
+                normal = np.where(extent > 0.0, coords / np.where(extent > 0.0, extent, 1.0), 1.0)
+                normal *= 0.5
             # Each robot moves half the excess overlap of every pair it is in, j along the
             # normal (which points from i to j), i against it.
             move = np.maximum(push, 0.0) * normal
