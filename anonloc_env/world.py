@@ -202,7 +202,7 @@ class World:
         self._state = np.zeros((self.n + 1, 7), dtype=np.float64)
         self.batch = BodyBatch(space, self._state, self.n)
         # Views of the robots' columns, made once; ufuncs write into them.
-        self._fx, self._fy = self._state[: self.n, 5:].T
+        self._force = self._state[: self.n, 5:].view(np.complex128)[:, 0]  # fx + i fy
         self._x, self._y, self._theta = self._state[: self.n, :3].T
         self._pose_rows = self._state[: self.n, :3]
         self._xy = self._state[: self.n, :2]
@@ -263,12 +263,12 @@ class World:
         turn = w * h
         z, theta = self._z, self._theta
         forward, turned = [], []
-        # Per robot and coordinate, the largest gap between a sub-step's move and its command.
+        # Per robot, the largest gap between a sub-step's move and its command, along and
+        # across its heading.
         worst = np.zeros((self.n, 2))
         for _ in range(self.substeps):
             heading = self._heading
-            np.multiply(speed, heading.real, out=self._fx)
-            np.multiply(speed, heading.imag, out=self._fy)
+            np.multiply(speed, heading, out=self._force)
             self.batch.write()
             self.space.step(h)
             state = self.batch.read_state()  # (N, 5): the poses as written, solved velocities
@@ -279,13 +279,13 @@ class World:
             self._set_headings()
             self._clamp_to_arena()
             self.separator.separate(self._xy, self._heading, self._clamp_to_arena)
-            moved = z - start
-            # Wheel encoders see the displacement along the heading only.
-            forward.append((moved * heading.conj()).real)
+            # The move in the robot's frame at the start of the sub-step: along + i across.
+            moved = (z - start) * heading.conj()
+            forward.append(moved.real)  # wheel encoders see the move along the heading only
             turned.append(theta - state[:, 2])
             # Free motion moves exactly by the command; a contact pushes the robot off it.
-            moved -= travel * heading
-            np.maximum(worst, np.abs(moved.view(np.float64).reshape(-1, 2)), out=worst)
+            off = moved - travel  # a new array: ``forward`` holds a view of ``moved``
+            np.maximum(worst, np.abs(off.view(np.float64).reshape(-1, 2)), out=worst)
         self.poses = self._pose_rows.copy()
         return WheelTravel(forward, turned, worst.max(axis=1) > self._bump_tolerance)
 
