@@ -52,7 +52,7 @@ STOP_OVERLAP = 0.03
 MAX_PROJECTIONS = 100
 #: How far (fraction of the size) beyond the circles around two robots the neighbour list
 #: reaches: the list is rebuilt once a robot has moved half of it.
-SKIN = 2.0
+SKIN = 1.0
 #: How far (fraction of the size) two robots may miss each other and still be projected.
 CLOSE_MARGIN = 0.1
 #: The largest element of an array (``ndarray.max`` goes through a Python wrapper first).

@@ -34,10 +34,19 @@ def test_a_robot_that_moved_past_the_skin_is_looked_up_again(shape: str) -> None
     poses[2, :2] = [0.05 * robot.size, 0.0]  # onto robot 0: 5 m away from where it was
     assert _worst_overlap(robot, poses) > 0.5 * robot.size
     _separate(separator, poses)
-    assert separator.rebuilds == 2
+    assert separator.rebuilds > 1
     assert _worst_overlap(robot, poses) <= STOP_OVERLAP * robot.size
-    # A move shorter than half the skin keeps the list.
+
+
+def test_the_list_is_kept_until_a_robot_moved_half_the_skin() -> None:
+    robot = RobotConfig()
+    separator = Separator(robot, 2)
+    poses = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    _separate(separator, poses)
     poses[1, 0] += 0.3 * SKIN * robot.size
+    _separate(separator, poses)
+    assert separator.rebuilds == 1
+    poses[1, 0] += 0.3 * SKIN * robot.size  # 0.6 of the skin from where the list was built
     _separate(separator, poses)
     assert separator.rebuilds == 2
 
