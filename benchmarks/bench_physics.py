@@ -36,8 +36,6 @@ import argparse
 import math
 import statistics
 import sys
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -48,15 +46,13 @@ import anonloc_env
 from anonloc_env.config import RobotConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench_env.py sits next to this file
-from bench_env import import_error, machine, mpe2_block, pin, vmas_block
+from bench_env import Block, clock, env_block, import_error, machine, mpe2_block, pin, vmas_block
+from limit_loop import BareObservations
 
 #: (N, robots per m²) of the env / bare loop rows.
 SCENARIOS = ((100, 1.0), (100, 4.0), (1000, 1.0), (1000, 4.0))
 STEPS_PER_PICTURE = 10
 SEED = 0
-#: A timed block: run ``k`` steps and return the seconds spent inside the step calls.
-Block = Callable[[int], float]
-clock = time.perf_counter
 
 
 class BareLoop:
@@ -89,13 +85,7 @@ class BareLoop:
         self.set_buffer.set_float_buf(self.velocity.reshape(-1))
         self.get_buffer = pmb.Buffer()
         self.poses = np.zeros((n, 3))
-        self.agents = [f"robot_{k}" for k in range(n)]
-        self.detections = np.zeros((n, 3), np.float32)
-        self.mask = np.ones(n, np.float32)
-        self.flag = np.zeros(1, np.float32)
-        self.interval = np.zeros(1, np.float32)
-        self.between_rows = list(np.zeros((n, 3), np.float32))
-        self.steps = 0
+        self.observations = BareObservations(n, STEPS_PER_PICTURE, self.rng)
 
     def step(self, commands: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
         """One step with ``commands`` ``(N, 2)`` = ``(v, w)`` (m/s, rad/s)."""
@@ -112,29 +102,7 @@ class BareLoop:
             self.space, pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE, self.get_buffer
         )
         self.poses = np.frombuffer(self.get_buffer.float_buf()).reshape(-1, 3)[:n].copy()
-        self.steps += 1
-        if self.steps % STEPS_PER_PICTURE == 0:
-            self.detections = self.poses[self.rng.permutation(n)].astype(np.float32)
-            self.between_rows = list(self.poses.astype(np.float32))
-        odometry = self.poses.astype(np.float32)
-        bumper = np.zeros((n, 1), np.float32)
-        since = np.zeros(1, np.float32)
-        detections, mask, flag, interval = self.detections, self.mask, self.flag, self.interval
-        return {
-            agent: {
-                "detections": detections,
-                "mask": mask,
-                "new_picture": flag,
-                "since_picture": since,
-                "odometry": odo,
-                "bumper": bump,
-                "odometry_between": between,
-                "interval": interval,
-            }
-            for agent, odo, bump, between in zip(
-                self.agents, list(odometry), list(bumper), self.between_rows, strict=True
-            )
-        }
+        return self.observations.build(self.poses)
 
 
 def env_and_bare(n: int, density: float) -> dict[str, Block]:
@@ -152,16 +120,6 @@ def env_and_bare(n: int, density: float) -> dict[str, Block]:
     bare = BareLoop(n, side, env.config.dt, SEED)
     rng = np.random.default_rng(SEED)
 
-    def env_block(k: int) -> float:
-        step, agents, spent = env.step, env.agents, 0.0
-        for _ in range(k):
-            row = rng.uniform(-1.0, 1.0, (n, 2)).astype(np.float32)
-            actions = dict(zip(agents, row, strict=True))
-            start = clock()
-            step(actions)
-            spent += clock() - start
-        return spent
-
     def bare_block(k: int) -> float:
         step, spent = bare.step, 0.0
         for _ in range(k):
@@ -171,7 +129,7 @@ def env_and_bare(n: int, density: float) -> dict[str, Block]:
             spent += clock() - start
         return spent
 
-    return {"env": env_block, "bare": bare_block}
+    return {"env": env_block(env, rng), "bare": bare_block}
 
 
 def ratio(

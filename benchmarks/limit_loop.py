@@ -63,13 +63,7 @@ class LimitLoop:
         self.state_buf.set_float_buf(self.state.reshape(-1))
         self.get_buf = pmb.Buffer()
         self.poses = np.zeros((n, 3))
-        self.agents = [f"robot_{i}" for i in range(n)]
-        self.picture = np.zeros((n, 3), np.float32)
-        self.mask = np.ones(n, np.float32)
-        self.flag = np.zeros(1, np.float32)
-        self.interval = np.zeros(1, np.float32)
-        self.between_rows = list(np.zeros((n, 3), np.float32))
-        self.steps = 0
+        self.observations = BareObservations(n, steps_per_picture, self.rng)
 
     def step(self, commands: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
         """One step with ``commands`` ``(N, 2)`` = (v, w)."""
@@ -89,11 +83,37 @@ class LimitLoop:
         self.separator.separate(self.state[:n, :2], heading, _no_clamp)
         pmb.set_space_bodies(self.space, fields, self.state_buf)
         self.poses = self.state[:n, :3].copy()
+        return self.observations.build(self.poses)
+
+
+class BareObservations:
+    """What a bare loop must hand back each step: a shuffled picture every ``steps_per_picture``
+    steps and every agent's observation dict (the env's keys) from views of shared arrays.
+
+    Args:
+        n: the number of agents.
+        steps_per_picture: steps between two pictures.
+        rng: shuffles the pictures.
+    """
+
+    def __init__(self, n: int, steps_per_picture: int, rng: np.random.Generator) -> None:
+        self.n, self.steps_per_picture, self.rng = n, steps_per_picture, rng
+        self.agents = [f"robot_{i}" for i in range(n)]
+        self.picture = np.zeros((n, 3), np.float32)
+        self.mask = np.ones(n, np.float32)
+        self.flag = np.zeros(1, np.float32)
+        self.interval = np.zeros(1, np.float32)
+        self.between_rows = list(np.zeros((n, 3), np.float32))
+        self.steps = 0
+
+    def build(self, poses: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """The observation dicts after a step that left the robots at ``poses`` ``(N, 3)``."""
+        n = self.n
         self.steps += 1
         if self.steps % self.steps_per_picture == 0:
-            self.picture = self.poses[self.rng.permutation(n)].astype(np.float32)
-            self.between_rows = list(self.poses.astype(np.float32))  # changes at pictures only
-        odometry = self.poses.astype(np.float32)
+            self.picture = poses[self.rng.permutation(n)].astype(np.float32)
+            self.between_rows = list(poses.astype(np.float32))  # changes at pictures only
+        odometry = poses.astype(np.float32)
         bumper = np.zeros((n, 1), np.float32)
         since = np.zeros(1, np.float32)
         picture, mask, flag, interval = self.picture, self.mask, self.flag, self.interval
