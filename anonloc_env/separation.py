@@ -14,14 +14,14 @@ solver still stops robots at their contacts.
 
 Candidate pairs come from a Verlet neighbour list, not from pymunk: every pair of robots whose
 centres were within ``2 * radius + skin`` when the list was built (a numpy grid search,
-:func:`pairs_within_self`). While no robot has moved more than ``skin / 2`` since
-then, every pair that can overlap (centres closer than ``2 * radius``: the circles around the
-shapes meet) is on the list; a robot that moved further triggers a rebuild, which happens every
-few steps (robots move a fraction of their size per sub-step). Each sub-step then costs a few
-numpy calls over the list to find the pairs close enough to overlap, and returns at once when
-there are none (most sub-steps outside a crowd). Only the close pairs are projected; when they
-are all clear, the close pairs are looked up again, since a projection may have pushed a robot
-into a neighbour that was not close before.
+:func:`pairs_within_self`). While no robot has moved more than ``skin / 2`` since then, every
+pair that can overlap (centres closer than ``2 * radius``: the circles around the shapes meet) is
+on the list; a robot that may have moved further triggers a rebuild, every 7 to 10 sub-steps with
+random actions. Each sub-step computes every listed pair's exact overlap in one pass of about
+twenty numpy calls and returns when none exceeds the stop (most sub-steps). Otherwise the pairs
+that overlap or miss by less than :data:`CLOSE_MARGIN` are projected; if a projection moved a
+robot further than half that margin, it may have pushed it into a pair left out, and the list is
+consulted again.
 
 Positions are complex numbers ``x + iy`` (a view of the world's state array) and headings unit
 complex numbers ``e = exp(i theta)``: the coordinates of a centre offset ``d`` in robot k's frame
@@ -29,7 +29,7 @@ are ``d * conj(e_k)``. Two squares of the same size reach equally far on all fou
 ``h * (1 + |cos a| + |sin a|)`` with ``h`` the half size and ``a`` the difference of headings,
 so by the separating-axis theorem they overlap by that reach minus the largest of the four
 coordinates of ``d``, along that coordinate's axis. Projections move robots without turning
-them, so the axes and the reach are computed once per sub-step.
+them, so the axes and the reach are computed once per pass.
 """
 
 from __future__ import annotations

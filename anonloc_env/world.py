@@ -13,7 +13,7 @@ Design notes:
   on the step path; see :class:`BodyBatch`). The poses live in numpy between sub-steps: they
   are written to the bodies at the start of the next one, with its forces (so between two
   ``step`` calls the bodies still hold the last sub-step's start and solved velocities;
-  :attr:`World.poses` is the truth).
+  ``World.poses`` is the truth).
   ``cpSpaceEachBody`` visits the robots in the order they were added and the space's static body
   last; the order is checked once when the world is built.
 * Solve, then move. pymunk integrates positions at the start of a step with the velocities its
