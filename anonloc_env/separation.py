@@ -12,12 +12,16 @@ projection), repeated until no pair overlaps by more than :data:`STOP_OVERLAP` o
 the same overlap a second time, a sub-step later, and push robots into their other neighbours); its
 solver still stops robots at their contacts.
 
-Candidate pairs come from pymunk's broad phase, not from a numpy neighbour search (which costs
-more than the whole step): every robot carries a *sensor* shape, the circle around its shape
-grown by a margin, that only meets other sensors. Sensors push nothing, but pymunk keeps an
-arbiter for every pair of sensors that touch, and ``pymunk.batch`` reads those pairs in one C
-call. The margin covers what two robots can move towards each other in one sub-step, so every
-pair that can overlap after the move is a candidate.
+Candidate pairs come from a Verlet neighbour list, not from pymunk: every pair of robots whose
+centres were within ``2 * radius + skin`` when the list was built (a numpy grid search,
+:func:`pairs_within_self`). While no robot has moved more than ``skin / 2`` since then, every
+pair that can overlap (centres closer than ``2 * radius``: the circles around the shapes meet) is
+on the list; a robot that may have moved further triggers a rebuild, every 7 to 10 sub-steps with
+random actions. Each sub-step computes every listed pair's exact overlap in one pass of about
+twenty numpy calls and returns when none exceeds the stop (most sub-steps). Otherwise the pairs
+that overlap or miss by less than :data:`CLOSE_MARGIN` are projected; if a projection moved a
+robot further than half that margin, it may have pushed it into a pair left out, and the list is
+consulted again.
 
 Positions are complex numbers ``x + iy`` (a view of the world's state array) and headings unit
 complex numbers ``e = exp(i theta)``: the coordinates of a centre offset ``d`` in robot k's frame
@@ -25,18 +29,19 @@ are ``d * conj(e_k)``. Two squares of the same size reach equally far on all fou
 ``h * (1 + |cos a| + |sin a|)`` with ``h`` the half size and ``a`` the difference of headings,
 so by the separating-axis theorem they overlap by that reach minus the largest of the four
 coordinates of ``d``, along that coordinate's axis. Projections move robots without turning
-them, so the axes and the reach are computed once per sub-step.
+them, so the axes and the reach are computed once per pass.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 import pymunk
-import pymunk.batch as pmb
 
 from anonloc_env.config import RobotConfig
+from anonloc_env.neighbours import expand_ranges
 
 #: Overlap (fraction of the size) that a projection leaves between two robots: a contact that
 #: pymunk still sees, so that its solver keeps stopping the robots there.
@@ -45,120 +50,194 @@ ALLOWED_OVERLAP = 0.01
 STOP_OVERLAP = 0.03
 #: Most projections per sub-step (a bound on the cost of a crowd jammed into a corner).
 MAX_PROJECTIONS = 100
-#: Shape filters: robots and walls collide with each other, sensors only with sensors.
+#: How far (fraction of the size) beyond the circles around two robots the neighbour list
+#: reaches: the list is rebuilt once a robot has moved half of it.
+SKIN = 1.0
+#: How far (fraction of the size) two robots may miss each other and still be projected.
+CLOSE_MARGIN = 0.1
+#: The largest element of an array (``ndarray.max`` goes through a Python wrapper first).
+_MAX = np.maximum.reduce
+#: The shape filter of robots and walls (they collide with each other).
 SOLID = pymunk.ShapeFilter(categories=0b01, mask=0b01)
-SENSOR = pymunk.ShapeFilter(categories=0b10, mask=0b10)
-_PAIR_FIELDS = pmb.ArbiterFields.BODY_A_ID | pmb.ArbiterFields.BODY_B_ID
-_NO_PAIRS = np.zeros((0, 2), dtype=np.intp)
 
 
 class Separator:
     """Finds the robots that may overlap and pushes them apart.
 
     Args:
-        space: the pymunk space; one sensor shape per robot is added to it.
-        bodies: the robots' bodies, in the order of the pose rows.
         robot: the robots' shape and size.
-        margin: how far (m) each sensor reaches beyond its robot; at least what a robot can move
-            in one sub-step (its corners included), so that no new contact is missed.
+        n: the number of robots.
     """
 
-    def __init__(
-        self, space: pymunk.Space, bodies: list[pymunk.Body], robot: RobotConfig, margin: float
-    ) -> None:
-        self.space = space
-        self.n = len(bodies)
+    def __init__(self, robot: RobotConfig, n: int) -> None:
+        self.n = n
         self.square = robot.shape == "square"
         self.size = robot.size
         self.half = robot.size / 2.0
         self.allowed = ALLOWED_OVERLAP * robot.size
-        self.stop = (STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size
-        for body in bodies:
-            # A circle around the robot's shape: a superset of its grown shape, and the cheapest
-            # collision test pymunk has.
-            sensor = pymunk.Circle(body, robot.radius + margin)
-            sensor.sensor = True
-            sensor.filter = SENSOR
-            space.add(sensor)
-        # Body ids (addresses) to rows, the static body (walls) to row n.
-        ids = np.array([b.id for b in bodies] + [space.static_body.id], dtype=np.uintp)
-        order = np.argsort(ids)
-        self._sorted_ids = ids[order]
-        self._static_id = ids[-1]
-        self._rows = order
-        self._buffer = pmb.Buffer()
+        self.stop = np.float64((STOP_OVERLAP - ALLOWED_OVERLAP) * robot.size)
+        # The pairs that overlap, or miss by less than a margin, are projected: a projection
+        # that moves no robot further than half the margin cannot push one into a pair left
+        # out (along any axis, the pair's centres get at most the margin closer).
+        self._margin = np.float64(-CLOSE_MARGIN * robot.size)
+        # The neighbour list holds every pair whose circles around the shapes were closer than
+        # the skin: until a robot has moved half the skin, no other pair can even touch.
+        meet = 2.0 * robot.radius if self.square else robot.size
+        self._list_reach = meet + SKIN * robot.size
+        # Moves along each axis small enough that no robot moved further than half the skin
+        # (or the margin): a sufficient test that needs no square root.
+        self._stale = np.float64(SKIN * robot.size / 2.0 / math.sqrt(2.0))
+        self._drift = np.float64(CLOSE_MARGIN * robot.size / 2.0 / math.sqrt(2.0))
+        self._anchor: np.ndarray | None = None  # positions (x + iy) when the list was built
+        self._pairs = np.zeros((0, 2), dtype=np.intp)
+        self.rebuilds = 0
+        """How many times the neighbour list was built."""
 
-    def candidates(self) -> np.ndarray:
-        """``(P, 2)`` rows ``(i, j)``, ``i < j``: every pair of robots whose sensors touch, once."""
-        buffer = self._buffer
-        buffer.clear()
-        pmb.get_space_arbiters(self.space, _PAIR_FIELDS, buffer)
-        ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
-        if np.count_nonzero(ids == self._static_id) * 2 == ids.size:  # none, or walls only
-            return _NO_PAIRS
-        pairs = self._rows[np.searchsorted(self._sorted_ids, ids)].reshape(-1, 2)
-        pairs.sort(axis=1)
-        # Robot-wall pairs (row n) go; a pair touching with its solid shapes has a second
-        # arbiter besides its sensors': keep one of each (sorted keys, repeats dropped).
-        pairs = pairs[pairs[:, 1] < self.n]
-        key = pairs[:, 0] * self.n
-        key += pairs[:, 1]
-        key.sort()
-        first = np.empty(key.size, dtype=bool)
-        first[:1] = True
-        np.not_equal(key[1:], key[:-1], out=first[1:])
-        return np.column_stack(np.divmod(key[first], self.n))
+    def neighbours(self, z: np.ndarray) -> np.ndarray:
+        """The neighbour list: ``(P, 2)`` rows ``(i, j)``, ``i < j``, rebuilt first if a robot
+        moved too far since it was built; ``z`` are the positions ``x + iy``."""
+        anchor = self._anchor
+        if anchor is None or not _moved(z, anchor) <= self._stale:
+            self._pairs = pairs_within_self(z, self._list_reach)
+            self._anchor = z.copy()
+            self.rebuilds += 1
+        return self._pairs
 
-    def separate(self, xy: np.ndarray, theta: np.ndarray, clamp: Callable[[], None]) -> None:
+    def separate(self, xy: np.ndarray, heading: np.ndarray, clamp: Callable[[], None]) -> None:
         """Push overlapping robots apart in place, keeping them inside the arena.
 
         Args:
             xy: ``(N, 2)`` float64 positions (m) whose rows are contiguous (a view of the
                 world's state is fine), changed in place.
-            theta: ``(N,)`` headings (rad), unchanged.
+            heading: ``(N,)`` unit headings ``exp(i theta)`` (complex), unchanged.
             clamp: keeps the positions inside the arena (in place); called after every
                 projection that moved a robot, so the walls do not give way.
         """
-        pairs = self.candidates()
-        if len(pairs) == 0:
-            return
         z = xy.view(np.complex128)[:, 0]  # x + iy, writing into xy
-        i, j = pairs[:, 0], pairs[:, 1]
-        if self.square:
-            heading = np.exp(1j * theta[pairs])  # (P, 2)
-            frames = heading.conj()
-            twist = heading[:, 1] * frames[:, 0]  # exp(i (theta_j - theta_i))
-            # What the pair may overlap before it is pushed: its reach less the allowed overlap.
-            limit = self.half * (1.0 + np.abs(twist.real) + np.abs(twist.imag)) - self.allowed
-        else:
-            limit = np.float64(self.size - self.allowed)
-        rows = None  # the projections' arrays, built at the first one (most sub-steps need none)
-        for _ in range(MAX_PROJECTIONS):
-            d = z[j] - z[i]
-            if self.square:
-                coords = (d[:, None] * frames).view(np.float64)  # (P, 4): d in both frames
-                extent = np.abs(coords)
-                push = limit - extent.max(axis=1)
-            else:
-                dist = np.abs(d)
-                push = limit - dist
-            if not push.max() > self.stop:
+        left = MAX_PROJECTIONS
+        while left > 0:
+            pairs = self.neighbours(z)
+            if len(pairs) == 0:
                 return
-            if rows is None:
-                n, rows, flat = self.n, np.arange(len(pairs)), pairs.T.ravel()
-                if self.square:
-                    # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
-                    axes = np.repeat(heading, 2, axis=1)
-                    axes[:, 1::2] *= 1j
-            if self.square:
+            frames = heading[pairs].conj() if self.square else None
+            limit = self._limit(frames)
+            push = limit - self._extent(z, pairs, frames)[0]
+            if not _MAX(push) > self.stop:
+                return  # most sub-steps end here
+            near = push > self._margin
+            if frames is not None and isinstance(limit, np.ndarray):  # squares
+                frames, limit = frames[near], limit[near]
+            start = z.copy()
+            done = self._project(z, pairs[near], frames, limit, clamp, left)
+            if _moved(z, start) <= self._drift:
+                return  # every pair that can overlap was among those projected
+            left -= done
+
+    def _limit(self, frames: np.ndarray | None) -> np.ndarray | np.float64:
+        """What each pair may reach into the other before it is pushed: for squares ``h (1 +
+        |cos a| + |sin a|)`` (``a`` the difference of headings, from the pairs' ``(P, 2)``
+        conjugate headings ``frames``) less the allowed overlap."""
+        if frames is None:
+            return np.float64(self.size - self.allowed)
+        twist = frames[:, 0] * frames[:, 1].conj()  # exp(i (theta_j - theta_i))
+        both = np.abs(twist.view(np.float64)).reshape(-1, 2)
+        reach = both[:, 0] + both[:, 1]
+        reach *= self.half
+        reach += self.half - self.allowed
+        return reach
+
+    def _extent(
+        self, z: np.ndarray, pairs: np.ndarray, frames: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """How far apart each pair's centres are along its separating axes: the largest, the
+        coordinates (``(P, 4)``: the offset in both frames) and their sizes (circles: the
+        distance, the offset ``(P,)`` complex and the distance again)."""
+        ends = z[pairs]
+        d = ends[:, 1] - ends[:, 0]
+        if frames is None:
+            dist = np.abs(d)
+            return dist, d, dist
+        coords = (d[:, None] * frames).view(np.float64)  # (P, 4)
+        extent = np.abs(coords)
+        # Two elementwise maxima: a reduction along a short axis costs more than the work.
+        wider = np.maximum(extent[:, :2], extent[:, 2:])
+        return np.maximum(wider[:, 0], wider[:, 1]), coords, extent
+
+    def _project(
+        self,
+        z: np.ndarray,
+        pairs: np.ndarray,
+        frames: np.ndarray | None,
+        limit: np.ndarray | np.float64,
+        clamp: Callable[[], None],
+        most: int,
+    ) -> int:
+        """Up to ``most`` projections of ``pairs`` (rows ``(i, j)``; their conjugate headings
+        ``frames`` and reach ``limit``), until none overlaps by more than the stop; returns how
+        many were made."""
+        rows = np.arange(len(pairs))
+        # Real and imaginary parts of the moves of i, then of j, summed per robot in one
+        # bincount over the interleaved coordinates.
+        slots = pairs.T.ravel() * 2
+        slots = np.column_stack((slots, slots + 1)).ravel()
+        if frames is not None:
+            # The four edge normals of each pair: e_i, i e_i, e_j, i e_j.
+            axes = np.repeat(frames.conj(), 2, axis=1)
+            axes[:, 1::2] *= 1j
+        for done in range(most):
+            largest, coords, extent = self._extent(z, pairs, frames)
+            push = limit - largest
+            if not _MAX(push) > self.stop:
+                return done
+            if frames is not None:
                 best = extent.argmax(axis=1)
                 along = coords[rows, best]
-                normal = axes[rows, best] * np.where(along < 0.0, -1.0, 1.0)
+                normal = axes[rows, best] * np.where(along < 0.0, -0.5, 0.5)
             else:
-                normal = np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 1.0)
+                normal = np.where(extent > 0.0, coords / np.where(extent > 0.0, extent, 1.0), 1.0)
+                normal *= 0.5
             # Each robot moves half the excess overlap of every pair it is in, j along the
             # normal (which points from i to j), i against it.
-            move = np.maximum(push, 0.0) * 0.5 * normal
-            weights = np.concatenate([-move, move])
-            z += np.bincount(flat, weights.real, n) + 1j * np.bincount(flat, weights.imag, n)
+            move = np.maximum(push, 0.0) * normal
+            moves = np.concatenate((-move, move)).view(np.float64)
+            z += np.bincount(slots, moves, 2 * self.n).view(np.complex128)
             clamp()
+        return most
+
+
+def pairs_within_self(z: np.ndarray, radius: float) -> np.ndarray:
+    """Every pair of points ``z`` (``x + iy``) at most ``radius`` apart, once: ``(P, 2)`` rows
+    ``(i, j)`` with ``i < j``, in an order that depends on the points alone.
+
+    A uniform grid with cells ``radius`` wide, as :func:`anonloc_env.neighbours.pairs_within`,
+    but each point looks only forward (the rest of its own cell, the cell above, and the three
+    cells of the next column: two ranges of consecutive keys), so each pair is found once.
+    """
+    n = len(z)
+    if n < 2:
+        return np.zeros((0, 2), dtype=np.intp)
+    x, y = z.real, z.imag
+    column = np.floor((x - x.min()) / radius).astype(np.intp)
+    row = np.floor((y - y.min()) / radius).astype(np.intp) + 1  # a free row below the lowest
+    stride = int(row.max()) + 2  # and one above the highest
+    key = column * stride + row
+    order = np.argsort(key, kind="stable")
+    keys = key[order]
+    position = np.arange(n)
+    # Same column: the points after this one in sorted order, up to the end of the cell above.
+    same_end = np.searchsorted(keys, keys + 1, side="right")
+    # Next column: the cells beside, below-beside and above-beside.
+    next_start = np.searchsorted(keys, keys + (stride - 1), side="left")
+    next_end = np.searchsorted(keys, keys + (stride + 1), side="right")
+    starts = np.concatenate((position + 1, next_start))
+    counts = np.concatenate((same_end - position - 1, next_end - next_start))
+    first = np.repeat(np.concatenate((order, order)), counts)
+    second = order[expand_ranges(starts, counts)]
+    near = np.abs(z[second] - z[first]) <= radius
+    first, second = first[near], second[near]
+    return np.column_stack((np.minimum(first, second), np.maximum(first, second)))
+
+
+def _moved(z: np.ndarray, before: np.ndarray) -> np.float64:
+    """The largest move of a robot along either axis from ``before`` to ``z`` (both ``x + iy``)."""
+    return _MAX(np.abs((z - before).view(np.float64)))

@@ -8,8 +8,12 @@ Design notes:
 
 * Bodies are dynamic with infinite moment: collisions push robots (a robot can shove another) but
   never spin them; headings change only by the commanded turn rate.
-* Velocities are written and poses read for all bodies at once with ``pymunk.batch``'s C
-  iterators (no per-body Python loop on the step path; see :class:`BodyBatch`).
+* Poses, velocities and forces are written and states read for all bodies at once with
+  ``pymunk.batch``'s C iterators, one write and one read per sub-step (no per-body Python loop
+  on the step path; see :class:`BodyBatch`). The poses live in numpy between sub-steps: they
+  are written to the bodies at the start of the next one, with its forces (so between two
+  ``step`` calls the bodies still hold the last sub-step's start and solved velocities;
+  ``World.poses`` is the truth).
   ``cpSpaceEachBody`` visits the robots in the order they were added and the space's static body
   last; the order is checked once when the world is built.
 * Solve, then move. pymunk integrates positions at the start of a step with the velocities its
@@ -19,14 +23,18 @@ Design notes:
   of a size and a long column pushed into a wall passed through it). So each sub-step asks for
   the command through the force that gives it in one sub-step (``damping = 0`` so the velocity
   is exactly ``f * h``), lets pymunk detect contacts and solve the velocities against them, and
-  then moves every robot by its *solved* velocity itself (positions written back, velocities
-  zeroed so that pymunk's own next integration moves nothing).
+  then moves every robot by its *solved* velocity itself (positions written back with zero
+  velocities at the next sub-step, so that pymunk's own integration moves nothing).
 * Solid robots: after the move, :class:`anonloc_env.separation.Separator` pushes apart the
   robots that still overlap (pymunk's solver does not converge in a wedged crowd, does not see
   turns, and sees a new contact only a sub-step late) until no pair overlaps by more than 3 % of
   the size (a bounded number of projections; see that module). pymunk's own position correction
-  is off: it would correct the same overlaps a second time. Candidate pairs come from sensor
-  shapes in pymunk's broad phase.
+  is off: it would correct the same overlaps a second time. Candidate pairs come from a numpy
+  neighbour list, rebuilt every few steps; a sub-step in which no pair is close costs a few
+  numpy calls.
+* Positions are handled as complex numbers ``x + iy`` and headings as unit complex numbers
+  ``exp(i theta)``, computed once per sub-step and shared by the forces, the odometry, the
+  wall limits and the separation: one ufunc per operation on both coordinates.
 * The walls are also a hard limit: after every sub-step a robot is clamped so that its shape
   reaches at most ``_WALL_TOLERANCE`` of its size into a wall, whatever the push. No robot ever
   leaves the arena, in any configuration.
@@ -51,8 +59,8 @@ from anonloc_env.separation import SOLID, Separator
 #: its size was pushed or blocked by a contact: its bumper fires.
 _BUMP_TOLERANCE = 1e-9
 # Flag unions built once: combining enum flags costs microseconds per call.
-_FORCE_FIELDS = pmb.BodyFields.FORCE
 _STATE_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE | pmb.BodyFields.VELOCITY
+_WRITE_FIELDS = _STATE_FIELDS | pmb.BodyFields.FORCE
 #: One ``(x, y, theta, vx, vy)`` row: ``np.frombuffer`` with it gives ``(N, 5)`` arrays directly.
 _STATE = np.dtype((np.float64, 5))
 #: pymunk's solver iterations per sub-step (its default, 10).
@@ -187,33 +195,36 @@ class World:
         self._add_walls()
         self._bodies = bodies  # keeps the Python wrappers alive next to the C bodies
         self._check_body_order(bodies)
-        # A robot moves at most ``reach`` in a sub-step (corners included); with the pushes of
-        # a crowd, twice that is the sensor margin (see anonloc_env.separation).
-        reach = (robot.v_max + robot.omega_max * robot.radius) * self.substep_dt
-        self.separator = Separator(space, bodies, robot, margin=2.0 * reach)
+        self.separator = Separator(robot, self.n)
 
-        # (N + 1, 2) forces and (N + 1, 5) states: robots first, the static body last (its row
-        # stays zero: it sits at the origin, at rest).
-        self._force = np.zeros((self.n + 1, 2), dtype=np.float64)
-        self._state = np.zeros((self.n + 1, 5), dtype=np.float64)
-        self.batch = BodyBatch(space, self._force, self._state, self.n)
+        # (N + 1, 7) rows (x, y, theta, vx, vy, fx, fy): robots first, the static body last (its
+        # row stays zero: it sits at the origin, at rest). The velocities stay zero.
+        self._state = np.zeros((self.n + 1, 7), dtype=np.float64)
+        self.batch = BodyBatch(space, self._state, self.n)
         # Views of the robots' columns, made once; ufuncs write into them.
-        self._fx, self._fy = self._force[: self.n].T
+        self._force = self._state[: self.n, 5:].view(np.complex128)[:, 0]  # fx + i fy
         self._x, self._y, self._theta = self._state[: self.n, :3].T
         self._pose_rows = self._state[: self.n, :3]
         self._xy = self._state[: self.n, :2]
+        self._z = self._xy.view(np.complex128)[:, 0]  # x + iy
         # A numpy scalar: comparing an array with a Python float costs a conversion per call.
         self._bump_tolerance = np.float64(_BUMP_TOLERANCE * robot.size)
         self._inv_h = np.float64(1.0 / self.substep_dt)
-        half = robot.size / 2.0
-        self._wall_slack = _WALL_TOLERANCE * robot.size
         self._square = robot.shape == "square"
-        self._half = np.float64(half)
-        width, height = config.arena_size
-        self._x_max = np.float64(width)
-        self._y_max = np.float64(height)
+        self._half = np.float64(robot.size / 2.0)
+        self._wall_slack = np.float64(_WALL_TOLERANCE * robot.size)
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
+        self._state[: self.n, :3] = self.poses
+        # The unit headings exp(i theta) of the current poses and the arena limits of the
+        # centres at those headings (see _set_headings): both change only when robots turn.
+        self._arena = np.array(config.arena_size, dtype=np.float64)
+        # Two buffers, swapped at each turn: a sub-step still reads the headings it started with.
+        self._heading = np.empty(self.n, dtype=np.complex128)
+        self._spare_heading = np.empty(self.n, dtype=np.complex128)
+        self._low = np.empty((self.n, 1))
+        self._high = np.empty((self.n, 2))
+        self._set_headings()
 
     def _add_walls(self) -> None:
         width, height = self.config.arena_size
@@ -242,76 +253,71 @@ class World:
 
         Each sub-step: the command as a force, pymunk's step (contacts, velocity solve), then
         the move by the solved velocities, clamped to the arena, and the separation of the
-        robots that still overlap (see the module). The arithmetic works on 1-D columns: numpy
-        is slower on 2-D strided blocks and broadcasts than on a few more 1-D calls.
+        robots that still overlap (see the module). Positions are worked on as complex numbers
+        ``x + iy`` and headings as unit complex numbers (one ufunc per operation on both
+        coordinates), through views of the state array that goes back to pymunk.
         """
         h = self.substep_dt
-        fx, fy, inv_h = self._fx, self._fy, self._inv_h
-        forward, turned = [], []
-        worst = None  # per robot, largest gap between its displacement and its command
+        speed = v * self._inv_h  # the force that gives ``v`` in one sub-step (mass 1)
+        travel = v * h  # the free move along the heading in one sub-step
         turn = w * h
+        z, theta = self._z, self._theta
+        forward, turned = [], []
+        # Per robot, the largest gap between a sub-step's move and its command, along and
+        # across its heading.
+        worst = np.zeros((self.n, 2))
         for _ in range(self.substeps):
-            poses = self.poses
-            cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            speed = v * inv_h
-            np.multiply(speed, cos, out=fx)
-            np.multiply(speed, sin, out=fy)
-            self.batch.write_forces()
+            heading = self._heading
+            np.multiply(speed, heading, out=self._force)
+            self.batch.write()
             self.space.step(h)
-            state = self.batch.read_state()  # (N, 5): corrected poses and solved velocities
-            x, y = self._x, self._y
-            np.multiply(state[:, 3], h, out=x)
-            x += state[:, 0]
-            np.multiply(state[:, 4], h, out=y)
-            y += state[:, 1]
-            np.add(state[:, 2], turn, out=self._theta)
+            state = self.batch.read_state()  # (N, 5): the poses as written, solved velocities
+            start = state[:, :2].view(np.complex128)[:, 0]
+            np.multiply(state[:, 3:].view(np.complex128)[:, 0], h, out=z)
+            z += start
+            np.add(state[:, 2], turn, out=theta)
+            self._set_headings()
             self._clamp_to_arena()
-            self.separator.separate(self._xy, self._theta, self._clamp_to_arena)
-            self.batch.write_state()
-            new = self._pose_rows.copy()
-            delta = new - poses
-            # Wheel encoders see the displacement along the heading only.
-            along = delta[:, 0] * cos
-            along += delta[:, 1] * sin
-            forward.append(along)
-            turned.append(delta[:, 2])
-            # Free motion moves exactly by the commanded velocity; a contact pushes it off.
-            off_x = np.abs(delta[:, 0] - v * cos * h)
-            off_y = np.abs(delta[:, 1] - v * sin * h)
-            if worst is None:
-                worst = np.maximum(off_x, off_y)
-            else:
-                np.maximum(worst, off_x, out=worst)
-                np.maximum(worst, off_y, out=worst)
-            self.poses = new
-        assert worst is not None  # substeps >= 1
-        return WheelTravel(forward, turned, worst > self._bump_tolerance)
+            self.separator.separate(self._xy, self._heading, self._clamp_to_arena)
+            # The move in the robot's frame at the start of the sub-step: along + i across.
+            moved = (z - start) * heading.conj()
+            forward.append(moved.real)  # wheel encoders see the move along the heading only
+            turned.append(theta - state[:, 2])
+            # Free motion moves exactly by the command; a contact pushes the robot off it.
+            off = moved - travel  # a new array: ``forward`` holds a view of ``moved``
+            np.maximum(worst, np.abs(off.view(np.float64).reshape(-1, 2)), out=worst)
+        self.poses = self._pose_rows.copy()
+        return WheelTravel(forward, turned, worst.max(axis=1) > self._bump_tolerance)
 
-    def _clamp_to_arena(self) -> None:
-        """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces."""
-        x, y = self._x, self._y
+    def _set_headings(self) -> None:
+        """Unit headings ``exp(i theta)`` and the arena limits of the centres at them."""
+        heading = self._spare_heading
+        self._spare_heading = self._heading
+        self._heading = heading
+        np.cos(self._theta, out=heading.real)
+        np.sin(self._theta, out=heading.imag)
         if self._square:
-            theta = self._theta
-            c, s = np.abs(np.cos(theta)), np.abs(np.sin(theta))
-            extent = (c + s) * self._half
+            extent = np.abs(heading.real)
+            extent += np.abs(heading.imag)
+            extent *= self._half
         else:
             extent = np.full(self.n, self._half)
-        extent -= self._wall_slack
-        # Robots well inside the arena (almost all) are left alone: one check, then the clamp.
-        if (
-            (x < extent).any()
-            or (y < extent).any()
-            or (x + extent > self._x_max).any()
-            or (y + extent > self._y_max).any()
-        ):
-            np.maximum(x, extent, out=x)
-            np.minimum(x, self._x_max - extent, out=x)
-            np.maximum(y, extent, out=y)
-            np.minimum(y, self._y_max - extent, out=y)
+        np.subtract(extent, self._wall_slack, out=self._low[:, 0])
+        np.subtract(self._arena, self._low, out=self._high)
+
+    def _clamp_to_arena(self) -> None:
+        """Keep every shape within ``_WALL_TOLERANCE`` of its size of the walls' inner faces.
+
+        Clamping a centre that is inside its limits leaves it as it was (bit for bit), so every
+        robot is clamped, without a test first.
+        """
+        xy = self._xy
+        np.maximum(xy, self._low, out=xy)
+        np.minimum(xy, self._high, out=xy)
 
 
 class BodyBatch:
-    """Forces of every body in, states of the robots out, poses back in: one C call each.
+    """Poses and forces of every body in, states of the robots out: one C call each.
 
     ``pymunk.batch.set_space_bodies`` and ``get_space_bodies`` build a ``pmBatchedData`` struct
     and read an enum at every call, which costs more than their C work for a hundred robots.
@@ -322,26 +328,15 @@ class BodyBatch:
 
     Args:
         space: the pymunk space.
-        force: ``(B, 2)`` float64 array, one ``(fx, fy)`` row per body of ``space`` in
-            ``cpSpaceEachBody`` order; :meth:`write_forces` sends it to the bodies.
-        state: ``(B, 5)`` float64 array of ``(x, y, theta, vx, vy)`` rows in the same order;
-            :meth:`write_state` sends it to the bodies.
+        state: ``(B, 7)`` float64 array of ``(x, y, theta, vx, vy, fx, fy)`` rows, one per body
+            of ``space`` in ``cpSpaceEachBody`` order; :meth:`write` sends it to the bodies.
         n: number of leading bodies (the robots) whose states :meth:`read_state` returns.
         fast: try the direct C calls (False: always use ``pymunk.batch``).
     """
 
-    def __init__(
-        self,
-        space: pymunk.Space,
-        force: np.ndarray,
-        state: np.ndarray,
-        n: int,
-        fast: bool = True,
-    ):
+    def __init__(self, space: pymunk.Space, state: np.ndarray, n: int, fast: bool = True):
         self.space = space
         self.n = n
-        self._force_buffer = pmb.Buffer()
-        self._force_buffer.set_float_buf(force.reshape(-1))
         self._state_buffer = pmb.Buffer()
         self._state_buffer.set_float_buf(state.reshape(-1))
         self._get_buffer = pmb.Buffer()
@@ -361,8 +356,7 @@ class BodyBatch:
                 name = f"pmSpaceBody{kind}IteratorFuncBatched"
                 return (self.space._space, ffi.addressof(lib, name), data)
 
-            self._force_call = call(self._force_buffer, _FORCE_FIELDS, True)
-            self._state_call = call(self._state_buffer, _STATE_FIELDS, True)
+            self._state_call = call(self._state_buffer, _WRITE_FIELDS, True)
             self._get_call = call(self._get_buffer, _STATE_FIELDS, False)
             self._each_body = lib.cpSpaceEachBody
             self._ffi = ffi
@@ -388,13 +382,9 @@ class BodyBatch:
         self._each_body(*call)
         array.num = size
 
-    def write_forces(self) -> None:
-        """Set every body's force from the ``force`` array."""
-        self._set(self._force_buffer, _FORCE_FIELDS, self._force_call if self.fast else ())
-
-    def write_state(self) -> None:
-        """Set every body's position, angle and velocity from the ``state`` array."""
-        self._set(self._state_buffer, _STATE_FIELDS, self._state_call if self.fast else ())
+    def write(self) -> None:
+        """Set every body's position, angle, velocity and force from the ``state`` array."""
+        self._set(self._state_buffer, _WRITE_FIELDS, self._state_call if self.fast else ())
 
     def read_state(self) -> np.ndarray:
         """A view ``(n, 5)`` of the robots' ``(x, y, theta, vx, vy)``, valid until the next read."""

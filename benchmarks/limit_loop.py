@@ -4,11 +4,10 @@ Each step, with the space settings and the solve-then-move order of ``anonloc_en
 the forces that ask for the commanded velocities from an ``(N, 2)`` command array and write them
 with ``pymunk.batch``, step the space once, read the poses and solved velocities back, move the
 robots by those velocities, push apart the robots that overlap (the world's own
-:class:`anonloc_env.separation.Separator`, with its sensor shapes in the space: solid robots are
-part of the design) and write the poses back (velocities zeroed), shuffle a picture every
-``steps_per_picture`` steps, and build every agent's observation dict (the same keys as the
-env's) from views of shared arrays. No validation, odometry, rewards, infos, schedule or wall
-clamp.
+:class:`anonloc_env.separation.Separator`: solid robots are part of the design) and write the
+poses back (velocities zeroed), shuffle a picture every ``steps_per_picture`` steps, and build
+every agent's observation dict (the same keys as the env's) from views of shared arrays. No
+validation, odometry, rewards, infos, schedule or wall clamp.
 
 The env cannot be faster than this; ``bench_env.py`` reports the env's speed as a fraction of it.
 """
@@ -51,8 +50,7 @@ class LimitLoop:
             wall = pymunk.Segment(self.space.static_body, a, b, r)
             wall.filter = SOLID
             self.space.add(wall)
-        reach = (robot.v_max + robot.omega_max * robot.radius) * dt
-        self.separator = Separator(self.space, bodies, robot, margin=2.0 * reach)
+        self.separator = Separator(robot, n)
         buf = pmb.Buffer()
         pmb.get_space_bodies(self.space, pmb.BodyFields.BODY_ID, buf)
         ids = np.frombuffer(buf.int_buf(), dtype=np.uintp)
@@ -65,13 +63,7 @@ class LimitLoop:
         self.state_buf.set_float_buf(self.state.reshape(-1))
         self.get_buf = pmb.Buffer()
         self.poses = np.zeros((n, 3))
-        self.agents = [f"robot_{i}" for i in range(n)]
-        self.picture = np.zeros((n, 3), np.float32)
-        self.mask = np.ones(n, np.float32)
-        self.flag = np.zeros(1, np.float32)
-        self.interval = np.zeros(1, np.float32)
-        self.between_rows = list(np.zeros((n, 3), np.float32))
-        self.steps = 0
+        self.observations = BareObservations(n, steps_per_picture, self.rng)
 
     def step(self, commands: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
         """One step with ``commands`` ``(N, 2)`` = (v, w)."""
@@ -87,14 +79,41 @@ class LimitLoop:
         state = np.frombuffer(self.get_buf.float_buf()).reshape(-1, 5)[:n]
         self.state[:n, :2] = state[:, :2] + state[:, 3:] * self.dt
         self.state[:n, 2] = state[:, 2] + commands[:, 1] * self.dt
-        self.separator.separate(self.state[:n, :2], self.state[:n, 2], _no_clamp)
+        heading = np.exp(1j * self.state[:n, 2])
+        self.separator.separate(self.state[:n, :2], heading, _no_clamp)
         pmb.set_space_bodies(self.space, fields, self.state_buf)
         self.poses = self.state[:n, :3].copy()
+        return self.observations.build(self.poses)
+
+
+class BareObservations:
+    """What a bare loop must hand back each step: a shuffled picture every ``steps_per_picture``
+    steps and every agent's observation dict (the env's keys) from views of shared arrays.
+
+    Args:
+        n: the number of agents.
+        steps_per_picture: steps between two pictures.
+        rng: shuffles the pictures.
+    """
+
+    def __init__(self, n: int, steps_per_picture: int, rng: np.random.Generator) -> None:
+        self.n, self.steps_per_picture, self.rng = n, steps_per_picture, rng
+        self.agents = [f"robot_{i}" for i in range(n)]
+        self.picture = np.zeros((n, 3), np.float32)
+        self.mask = np.ones(n, np.float32)
+        self.flag = np.zeros(1, np.float32)
+        self.interval = np.zeros(1, np.float32)
+        self.between_rows = list(np.zeros((n, 3), np.float32))
+        self.steps = 0
+
+    def build(self, poses: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """The observation dicts after a step that left the robots at ``poses`` ``(N, 3)``."""
+        n = self.n
         self.steps += 1
         if self.steps % self.steps_per_picture == 0:
-            self.picture = self.poses[self.rng.permutation(n)].astype(np.float32)
-            self.between_rows = list(self.poses.astype(np.float32))  # changes at pictures only
-        odometry = self.poses.astype(np.float32)
+            self.picture = poses[self.rng.permutation(n)].astype(np.float32)
+            self.between_rows = list(poses.astype(np.float32))  # changes at pictures only
+        odometry = poses.astype(np.float32)
         bumper = np.zeros((n, 1), np.float32)
         since = np.zeros(1, np.float32)
         picture, mask, flag, interval = self.picture, self.mask, self.flag, self.interval

@@ -95,7 +95,7 @@ def test_direct_batch_calls_match_pymunk_batch() -> None:
         env = anonloc_env.parallel_env(n_robots=30, arena_size=(2.0, 2.0), dt=0.05)
         env.reset(seed=3)
         world = env.world
-        world.batch = BodyBatch(world.space, world._force, world._state, world.n, fast=fast)
+        world.batch = BodyBatch(world.space, world._state, world.n, fast=fast)
         assert world.batch.fast is fast
         worlds.append(world)
     rng = np.random.default_rng(0)
