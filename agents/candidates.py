@@ -1,17 +1,17 @@
 """An excitation that scores its candidate commands and lets someone else choose among them.
 
-:class:`CandidateChooser` is :class:`baselines.active.GreedyIdentification` with the choice taken
+:class:`CandidateChooser` is ``baselines.active.GreedyIdentification`` with the choice taken
 out: at every picture each robot draws its candidates from its own generator and its identifier
-predicts what each would tell (:meth:`~baselines.active.GreedyIdentification.score`); the result
-is the robots' observation (:mod:`agents.observation`). The choice comes from :meth:`decide`:
+predicts what each would tell (``baselines.active.GreedyIdentification.score``); the result
+is the robots' observation (:mod:`agents.observation`). The choice comes from ``decide``:
 the trainer's (:class:`agents.crew.Crew`, the action of each slot) or a policy's
-(:class:`agents.policy.LearnedExcitation` overrides :meth:`on_scored`). The chosen candidate is
+(:class:`agents.policy.LearnedExcitation` overrides ``on_scored``). The chosen candidate is
 held until the next picture, with the back-off after a bump. Until a picture with a row has been
 taken in, a robot drives its first candidate.
 
-Everything happens in :meth:`on_picture`, so the observation a policy acts on is the same in
+Everything happens in ``on_picture``, so the observation a policy acts on is the same in
 training and in use. On swarm duty the deviation's base is the shared command
-:class:`baselines.excitations.SwarmDuty` last told it (at the reset, or the step before the
+``baselines.excitations.SwarmDuty`` last told it (at the reset, or the step before the
 picture).
 """
 
@@ -34,7 +34,7 @@ from baselines.steps import BeliefView, Step
 
 
 class CandidateChooser(GreedyIdentification):
-    """Scored candidates, chosen by :meth:`decide` (see the module doc).
+    """Scored candidates, chosen by ``decide`` (see the module doc).
 
     Args:
         candidates: candidates per robot and picture (the policy's choices), >= 1.
@@ -89,7 +89,7 @@ class CandidateChooser(GreedyIdentification):
 
     def on_scored(self) -> None:
         """Called when the candidates of a new picture are scored (``self.observation``); a
-        policy calls :meth:`decide` here. The default waits for the trainer's decision."""
+        policy calls ``decide`` here. The default waits for the trainer's decision."""
 
     def decide(self, pick: np.ndarray) -> None:
         """Drive candidate ``pick[i]`` of robot ``i`` (``(R,)`` integers in ``[0, C)``) until the
@@ -116,4 +116,4 @@ class CandidateChooser(GreedyIdentification):
         return cost.argmin(axis=1)
 
     def choose(self) -> None:
-        """The choice was made at the picture (:meth:`decide`): nothing to do here."""
+        """The choice was made at the picture (``decide``): nothing to do here."""

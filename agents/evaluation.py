@@ -30,7 +30,7 @@ def play(
     pictures: int,
 ) -> list[EpisodeResult]:
     """One episode per seed of ``bayes`` robots driven by ``make()``'s excitation (the deviation
-    of :class:`~baselines.excitations.SwarmDuty`, seeded by the episode seed, on ``swarm``
+    of ``baselines.excitations.SwarmDuty``, seeded by the episode seed, on ``swarm``
     duty), up to ``pictures`` pictures after the first."""
     env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
     out = []

@@ -1,9 +1,9 @@
 """What a learning robot sees: a few candidate commands, each with what it is predicted to tell.
 
 At every picture each robot draws ``C`` candidate commands from its own random generator (the
-box of :class:`baselines.active.GreedySettings`, or deviations on swarm duty) and its own
+box of ``baselines.active.GreedySettings``, or deviations on swarm duty) and its own
 identifier predicts, for each, the entropy its belief would have after the next picture
-(:func:`baselines.active.expected_entropy`, what the ``greedy`` excitation computes). The policy
+(``baselines.active.expected_entropy``, what the ``greedy`` excitation computes). The policy
 scores the candidates and picks one; the robot holds it until the next picture.
 
 The observation of one robot (observation layout :data:`LAYOUT`) is a dict of two float32 arrays:
@@ -89,7 +89,7 @@ def candidate_observation(
     """The robots' observations (batched, leading robot axis) from their scored candidates.
 
     Args:
-        cset: the candidates and their predictions (:meth:`GreedyIdentification.score`), or
+        cset: the candidates and their predictions (``GreedyIdentification.score``), or
             None when nothing was scored (the observation is then zeros but the context).
         context: ``(R, CONTEXT_FEATURES - 1)`` the context but its last entry (see the module).
         scale: ``(v_max, omega_max)`` of the robot.

@@ -145,7 +145,7 @@ def load_model(path: str | Path) -> Any:
 def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
     """The excitation of the agent saved at ``path`` (an ``agent.zip``, its run folder, or
     ``"bundled"``), in ``condition`` (default: the one its run recorded, else ``free``; on
-    ``swarm`` duty the agent is the deviation of :class:`baselines.excitations.SwarmDuty`, with
+    ``swarm`` duty the agent is the deviation of ``baselines.excitations.SwarmDuty``, with
     ``budget`` or the run's)."""
     file = agent_file(path)
     model = load_model(file)
