@@ -36,6 +36,7 @@ import importlib
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from anonloc_env.config import EnvConfig
@@ -318,7 +319,8 @@ def train_rllib(
     Args:
         ppo_config: from :func:`make_ppo_config` (or a ``PPOConfig`` built on it).
         iterations: training iterations, >= 1.
-        checkpoint_dir: if given, the trained algorithm is saved there (``Algorithm.save_to_path``).
+        checkpoint_dir: if given, the trained algorithm is saved there (``Algorithm.save_to_path``;
+            a relative path is taken from the working folder).
         num_cpus: CPUs of the local Ray instance (default: all).
         torch_threads: torch threads of this process, which samples (with
             ``num_env_runners=0``) and learns (``num_learners=0``); ``None`` leaves torch's
@@ -341,8 +343,8 @@ def train_rllib(
     algorithm = ppo_config.build_algo()
     try:
         metrics = train_iterations(algorithm, iterations, env_config.n_robots)
-        if checkpoint_dir is not None:
-            algorithm.save_to_path(checkpoint_dir)
+        if checkpoint_dir is not None:  # pyarrow refuses a relative path ("empty scheme")
+            algorithm.save_to_path(str(Path(checkpoint_dir).resolve()))
     finally:
         algorithm.stop()
     return metrics
