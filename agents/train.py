@@ -250,8 +250,10 @@ def resume(
         progress: show a progress bar (default: as recorded).
         notify: where to say that a damaged checkpoint was skipped (default: a warning).
 
+    A run killed before its first checkpoint (nothing saved) trains again from step 0.
+
     Raises:
-        FileNotFoundError: no run or no usable checkpoint there.
+        FileNotFoundError: no run there, or only damaged checkpoints.
         ValueError: a bad new budget, or a config.json that is not a run's.
     """
     directory = Path(directory)
@@ -266,8 +268,18 @@ def resume(
         config = TrainConfig(**recorded)
     except TypeError as error:
         raise ValueError(f"{directory / 'config.json'} is not a run's config: {error}") from None
+    say = notify if notify is not None else _warn
     with _RunLock(directory):
+        if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
+            # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
+            # the run starts again from step 0 rather than being a dead end.
+            say(f"no checkpoint in {directory / 'checkpoints'}: training the run from step 0")
+            return _learn(config, directory, None)
         return _learn(config, directory, latest_checkpoint(directory, notify=notify))
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, stacklevel=3)
 
 
 def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> TrainResult:
@@ -356,11 +368,7 @@ def latest_checkpoint(directory: Path, *, notify: Callable[[str], None] | None =
         problem = _zip_problem(newest)
         if problem is None:
             return newest
-        message = f"checkpoint {newest} is damaged ({problem}); trying the previous one"
-        if notify is None:
-            warnings.warn(message, stacklevel=2)
-        else:
-            notify(message)
+        (notify or _warn)(f"checkpoint {newest} is damaged ({problem}); trying the previous one")
     raise FileNotFoundError(f"no readable checkpoint in {directory / 'checkpoints'}")
 
 

@@ -7,6 +7,7 @@ imports what it needs when it runs.
 from __future__ import annotations
 
 import contextlib
+import errno
 import sys
 from collections.abc import Iterator
 from enum import Enum
@@ -104,6 +105,10 @@ def _root(
     """Self-localization of anonymous robots from aerial images."""
 
 
+#: Errors of a disk that cannot take more (full, over quota, read-only): a message, not a trace.
+_DISK_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS)
+
+
 @contextlib.contextmanager
 def _command(verbose: int) -> Iterator[None]:
     """Set up logging; turn the expected failures into a message and an exit status."""
@@ -128,6 +133,17 @@ def _command(verbose: int) -> Iterator[None]:
             err=True,
         )
         raise typer.Exit(130) from None
+    except OSError as error:
+        if error.errno not in _DISK_ERRORS:
+            raise
+        where = f" {error.filename}" if error.filename else ""
+        typer.echo(
+            f"Error: cannot write{where}: {error.strerror}. What was finished before is kept "
+            "(stored units, checkpoints); make room and run the same command again (train: "
+            "--resume).",
+            err=True,
+        )
+        raise typer.Exit(1) from None
 
 
 def _run_options(

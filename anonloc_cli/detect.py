@@ -67,7 +67,7 @@ def header_size(path: Path) -> tuple[int, int]:
         if head[:2] == b"\xff\xd8":
             file.seek(2)
             return _jpeg_size(file)
-    raise BadFrameError(f"{path.name} is not a PNG or JPEG file")
+    raise BadFrameError("not a PNG or JPEG file")
 
 
 def _jpeg_size(file: Any) -> tuple[int, int]:

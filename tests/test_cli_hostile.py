@@ -206,3 +206,155 @@ def test_detect_skip_bad_skips_and_names_bad_frames_and_other_files(tmp_path: Pa
     assert "in 1 frames" in result.output
     assert "skipped frame: b.png" in result.output
     assert "skipped 1 files that are not .png/.jpg/.jpeg: notes.txt" in result.output
+
+
+# -- frictions -----------------------------------------------------------------------------
+
+
+def test_eval_has_defaults_for_seeds_and_out() -> None:
+    from anonloc_cli.app import EVAL_SEEDS
+
+    result = invoke("eval", "--help")
+    assert result.exit_code == 0
+    assert "[default: 20; 1<=x<=100000]" in result.output
+    assert "[default: eval.csv]" in result.output
+    assert EVAL_SEEDS == 20
+
+
+def test_study_names_the_files_it_wrote(tmp_path: Path) -> None:
+    from anonloc_cli import jobs, study
+
+    report = jobs.Report(total=1, skipped=1)
+    names = [s.name for s in study.check_sweeps(["robots"])]
+    assert names == ["robots"]
+    result = invoke(
+        "study", "--sweep", "robots", "--seeds", "1", "--out", tmp_path, "--workers", "1",
+        "--quiet",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert f"to {tmp_path}: robots.{{png,svg,csv,meta.json}}" in result.output
+    for suffix in ("png", "svg", "csv", "meta.json"):
+        assert (tmp_path / f"robots.{suffix}").is_file()
+    assert report.ran == 0
+
+
+def test_printed_tables_fit_100_columns(tmp_path: Path) -> None:
+    out = tmp_path / "b.csv"
+    result = invoke(
+        "bench", "--scenario", "default", "--policy", "bayes", "--policy", "motion",
+        "--seeds", "1", "--pictures", "2", "--out", out, "--workers", "1", "--quiet",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    widths = [len(line) for line in result.output.splitlines() if line[:1] in "┏┃┡│└"]
+    assert max(widths) <= 100, max(widths)
+    assert max(widths) > 60  # the table was printed
+
+
+def test_the_readme_table_uses_the_labels_reproduce_prints() -> None:
+    from anonloc_cli.reproduce import table
+    from tests.cli_helpers import ROOT
+
+    headers, rows = table({m: [] for m in ("angular", "linear", "motion")})
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## The paper's table, reproduced", 1)[1].split("\n\n", 3)[2]
+    lines = [line for line in section.splitlines() if line.startswith("|")]
+    assert lines[0] == "| " + " | ".join(headers) + " |"
+    assert [line.split(" | ")[0].lstrip("| ") for line in lines[2:]] == [r[0] for r in rows]
+
+
+def test_the_default_frame_shows_a_wrong_guess(tmp_path: Path) -> None:
+    pytest.importorskip("pygame")
+    from anonloc_cli.app import SHOW_SETS, _shown
+
+    scenario = _shown(None, [])
+    assert scenario.config.n_robots == 12
+    assert SHOW_SETS == ("n_robots=12",)
+    out = tmp_path / "b.csv"
+    result = invoke(
+        "bench", "--scenario", "default", *(f"--set={s}" for s in SHOW_SETS), "--policy",
+        "bayes", "--seeds", "1", "--pictures", "2", "--out", out, "--workers", "1", "--quiet",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    second = [json.loads(r["correct_by_picture"])[1] for r in read_csv(out)]
+    assert 0 < sum(second) < len(second)  # some right, some not yet, at the second picture
+
+
+# -- found by the hostile pass ---------------------------------------------------------------
+
+
+def test_a_full_disk_is_a_message_and_keeps_what_was_stored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import errno
+
+    from anonloc_cli.store import Store
+
+    real = Store.append
+    calls = []
+
+    def fill_up(self: Store, record: dict) -> None:
+        calls.append(record["key"])
+        if len(calls) > 1:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
+        real(self, record)
+
+    monkeypatch.setattr(Store, "append", fill_up)
+    out = tmp_path / "b.csv"
+    result = invoke(
+        "bench", "--scenario", "default", "--policy", "bayes", "--seeds", "3", "--pictures", "2",
+        "--out", out, "--workers", "1", "--quiet",
+    )  # fmt: skip
+    assert result.exit_code == 1
+    assert "No space left on device" in result.output
+    assert "run the same command again" in result.output
+    stored = out.with_name("b.units.jsonl").read_text().splitlines()
+    assert len(stored) == 1
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_calibration_refuses_non_finite_points(bad: float) -> None:
+    pytest.importorskip("cv2")
+    from anonloc_env.images.calibration import estimate_homography
+
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    image = square * 100.0
+    image[2, 1] = bad
+    with pytest.raises(ValueError, match="the points must be finite numbers"):
+        estimate_homography(square, image)
+
+
+@pytest.mark.parametrize(("robots", "pictures"), [(3, 0), (0, 5), (2, 1.5)])
+def test_calibration_refuses_no_pictures_or_robots(robots: int, pictures: int) -> None:
+    from anonloc_env.images.calibration import calibrate
+
+    with pytest.raises(ValueError, match=r"(robots|pictures) must be an integer >= 1"):
+        calibrate(make_config(), robots=robots, pictures=pictures)
+
+
+def test_calibration_refuses_collinear_points() -> None:
+    pytest.importorskip("cv2")
+    from anonloc_env.images.calibration import estimate_homography
+
+    line = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
+    with pytest.raises(ValueError, match="degenerate"):
+        estimate_homography(line, line * 100.0)
+
+
+def test_detect_names_an_empty_frame_once(tmp_path: Path) -> None:
+    camera, folder = _frames(tmp_path)
+    (folder / "b.png").write_bytes(b"")
+    result = invoke("detect", folder, "--camera", camera, "--out", tmp_path / "d.csv")
+    assert result.exit_code == 2
+    assert "Error: b.png: not a PNG or JPEG file" in result.output
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [("nan.toml", "[camera]\nscale = nan\n"), ("inf.toml", "[camera]\npixel_noise = inf\n")],
+)
+def test_a_non_finite_camera_file_is_refused(tmp_path: Path, name: str, text: str) -> None:
+    camera = tmp_path / name
+    camera.write_text(text)
+    code, output = _bench(tmp_path, "--scenario", camera)
+    assert code == 2
+    assert "must be a finite number" in output
