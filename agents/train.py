@@ -241,16 +241,15 @@ def resume(
 
     The budget rule: the run trains up to its recorded total ``timesteps`` unless ``timesteps``
     gives a new total; ``minutes`` bounds this call's wall time (default: the recorded
-    ``minutes``, itself per call). A run already at its total trains no more.
+    ``minutes``, itself per call). A run already at its total trains no more. A run killed
+    before its first checkpoint (nothing saved) trains again from step 0.
 
     Args:
         directory: the run folder.
         timesteps: new total robot-steps (default: the recorded total).
         minutes: this call's wall-clock budget (default: the recorded one).
         progress: show a progress bar (default: as recorded).
-        notify: where to say that a damaged checkpoint was skipped (default: a warning).
-
-    A run killed before its first checkpoint (nothing saved) trains again from step 0.
+        notify: where to say that a checkpoint was skipped or missing (default: a warning).
 
     Raises:
         FileNotFoundError: no run there, or only damaged checkpoints.

@@ -171,3 +171,18 @@ def test_a_second_train_on_a_run_being_trained_is_refused(tmp_path: Path) -> Non
     assert second.returncode == 2
     assert "is being trained by another process" in second.stderr
     assert [p.name for p in checkpoints(run)] == [f"agent_{ROLLOUT}_steps.zip"]
+
+
+def test_resume_honours_minutes(tmp_path: Path) -> None:
+    first = run_script(
+        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "m",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    resumed = run_script(
+        "train", "--resume", tmp_path / "m", "--timesteps", "10000000", "--minutes", "0.01",
+        "--quiet", timeout=90,
+    )  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr
+    trained = int(resumed.stdout.split("trained ", 1)[1].split(" ", 1)[0])
+    assert ROLLOUT < trained < 10_000_000  # stopped by the 0.6 s budget, not the total
