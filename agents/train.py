@@ -27,6 +27,7 @@ import re
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -299,17 +300,18 @@ def resume(
 
     The budget rule: the run trains up to its recorded total ``timesteps`` unless ``timesteps``
     gives a new total; ``minutes`` bounds this call's wall time (default: the recorded
-    ``minutes``, itself per call). A run already at its total trains no more.
+    ``minutes``, itself per call). A run already at its total trains no more. A run killed
+    before its first checkpoint (nothing saved) trains again from step 0.
 
     Args:
         directory: the run folder.
         timesteps: new total robot-steps (default: the recorded total).
         minutes: this call's wall-clock budget (default: the recorded one).
         progress: show a progress bar (default: as recorded).
-        notify: where to say that a damaged checkpoint was skipped (default: a warning).
+        notify: where to say that a checkpoint was skipped or missing (default: a warning).
 
     Raises:
-        FileNotFoundError: no run or no usable checkpoint there.
+        FileNotFoundError: no run there, or only damaged checkpoints.
         ValueError: a bad new budget, or a config.json that is not a run's.
     """
     directory = Path(directory)
@@ -324,8 +326,18 @@ def resume(
         config = TrainConfig(**recorded)
     except TypeError as error:
         raise ValueError(f"{directory / 'config.json'} is not a run's config: {error}") from None
+    say = notify if notify is not None else _warn
     with _RunLock(directory):
+        if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
+            # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
+            # the run starts again from step 0 rather than being a dead end.
+            say(f"no checkpoint in {directory / 'checkpoints'}: training the run from step 0")
+            return _learn(config, directory, None)
         return _learn(config, directory, latest_checkpoint(directory, notify=notify))
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, stacklevel=3)
 
 
 def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> TrainResult:

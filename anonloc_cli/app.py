@@ -7,11 +7,12 @@ imports what it needs when it runs.
 from __future__ import annotations
 
 import contextlib
+import errno
 import sys
 from collections.abc import Iterator
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated, Any, NoReturn
 
 try:
     import typer
@@ -22,7 +23,7 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
     raise SystemExit(1) from None
 
 from anonloc_cli.jobs import RunOptions  # a dataclass; jobs imports nothing heavy at the top
-from anonloc_cli.sweeps import DEFAULT_SEEDS, SWEEPS  # plain data, nothing heavy
+from anonloc_cli.sweeps import DEFAULT_SEEDS, MAX_SEEDS, SWEEPS  # plain data, nothing heavy
 
 app = typer.Typer(
     name="anonloc",
@@ -35,6 +36,10 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode=None,  # help texts are plain: "[ray]" in them is not markup
 )
+
+
+#: ``eval``'s episodes when --seeds is not given.
+EVAL_SEEDS = 20
 
 
 class Backend(str, Enum):
@@ -100,6 +105,10 @@ def _root(
     """Self-localization of anonymous robots from aerial images."""
 
 
+#: Errors of a disk that cannot take more (full, over quota, read-only): a message, not a trace.
+_DISK_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS)
+
+
 @contextlib.contextmanager
 def _command(verbose: int) -> Iterator[None]:
     """Set up logging; turn the expected failures into a message and an exit status."""
@@ -124,6 +133,17 @@ def _command(verbose: int) -> Iterator[None]:
             err=True,
         )
         raise typer.Exit(130) from None
+    except OSError as error:
+        if error.errno not in _DISK_ERRORS:
+            raise
+        where = f" {error.filename}" if error.filename else ""
+        typer.echo(
+            f"Error: cannot write{where}: {error.strerror}. What was finished before is kept "
+            "(stored units, checkpoints); make room and run the same command again (train: "
+            "--resume).",
+            err=True,
+        )
+        raise typer.Exit(1) from None
 
 
 def _run_options(
@@ -216,7 +236,8 @@ def bench(
         typer.Option(help="A policy: angular, linear, motion, motion3, bayes (repeatable)."),
     ],
     seeds: Annotated[
-        int, typer.Option(min=1, help="Episodes per policy and scenario (seeds 0..N-1).")
+        int,
+        typer.Option(min=1, max=MAX_SEEDS, help="Episodes per policy and scenario (seeds 0..N-1)."),
     ],
     out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
     mode: Annotated[
@@ -248,7 +269,9 @@ def bench(
         from anonloc_cli import bench as command
         from anonloc_cli import scenarios, teams
 
-        resolved = [scenarios.resolve(s, set_ or []) for s in scenario]
+        resolved = scenarios.distinct(
+            [scenarios.resolve(s, set_ or []) for s in scenario], scenario
+        )
         names = [teams.check_policy(p) for p in policy]
         teams.check_mode(mode)
         teams.check_excitation(excitation)
@@ -277,7 +300,9 @@ def study(
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("results/study"),
     seeds: Annotated[
         int | None,
-        typer.Option(min=1, help=f"Episodes per point and policy (default: {DEFAULT_SEEDS})."),
+        typer.Option(
+            min=1, max=MAX_SEEDS, help=f"Episodes per point and policy (default: {DEFAULT_SEEDS})."
+        ),
     ] = None,
     backend: BackendOption = Backend.process,
     address: Address = None,
@@ -309,14 +334,31 @@ def study(
     raise typer.Exit(status)
 
 
+#: What ``render`` and ``frame`` show without --scenario: the default preset with enough robots
+#: that the first pictures leave some of them wrong (with its 4, every guess is right from the
+#: second picture on, and a newcomer never sees the problem).
+SHOW_SETS = ("n_robots=12",)
+SHOW_SCENARIO_HELP = (
+    "A preset or a TOML/YAML scenario file (default: the default preset with 12 robots, so "
+    "that the first pictures show wrong guesses)."
+)
+
+
+def _shown(scenario: str | None, sets: list[str]) -> Any:
+    """The scenario ``render``/``frame`` play (see :data:`SHOW_SETS`)."""
+    from anonloc_cli import scenarios
+
+    if scenario is None:
+        return scenarios.resolve("default", [*SHOW_SETS, *sets])
+    return scenarios.resolve(scenario, sets)
+
+
 @app.command()
 def render(
     out: Annotated[
         Path | None, typer.Option(help="A .gif (or .mp4 with an ffmpeg plugin).")
     ] = None,
-    scenario: Annotated[
-        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
-    ] = "default",
+    scenario: Annotated[str | None, typer.Option(help=SHOW_SCENARIO_HELP)] = None,
     policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
     steps: Annotated[int, typer.Option(min=1, help="Control steps to play.")] = 200,
@@ -336,10 +378,10 @@ def render(
     """
     with _command(verbose):
         from anonloc_cli import recording as command
-        from anonloc_cli import scenarios, teams
+        from anonloc_cli import teams
 
         command.check_output(out, human)
-        resolved = scenarios.resolve(scenario, set_ or [])
+        resolved = _shown(scenario, set_ or [])
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.main(
@@ -361,6 +403,14 @@ def detect(
     out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else .csv.")] = Path(
         "detections.csv"
     ),
+    skip_bad: Annotated[
+        bool,
+        typer.Option(
+            "--skip-bad",
+            help="Skip unreadable frames or frames of the wrong size (each is named) instead "
+            "of stopping.",
+        ),
+    ] = False,
     quiet: Quiet = False,
     verbose: Verbose = 0,
 ) -> None:
@@ -375,19 +425,24 @@ def detect(
 
         command.check_output(out)
         resolved = scenarios.resolve(camera)
-        status = command.main(folder, resolved, out, quiet=quiet)
+        status = command.main(folder, resolved, out, quiet=quiet, skip_bad=skip_bad)
     raise typer.Exit(status)
 
 
 @app.command()
 def frame(
     out: Annotated[Path, typer.Option(help="The PNG to write.")],
-    scenario: Annotated[
-        str, typer.Option(help="A preset or a TOML/YAML scenario file.")
-    ] = "default",
+    scenario: Annotated[str | None, typer.Option(help=SHOW_SCENARIO_HELP)] = None,
     policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
-    steps: Annotated[int, typer.Option(min=0, help="Control steps before the frame.")] = 100,
+    steps: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="Control steps before the frame (default: just after the second picture, "
+            "while some guesses are still wrong).",
+        ),
+    ] = 30,
     set_: Sets = None,
     preset: Annotated[
         str | None, typer.Option(hidden=True, help="Deprecated: use --scenario.")
@@ -401,13 +456,13 @@ def frame(
     """
     with _command(verbose):
         from anonloc_cli import recording as command
-        from anonloc_cli import scenarios, teams
+        from anonloc_cli import teams
 
         if preset is not None:
             typer.echo("Warning: --preset is deprecated; use --scenario", err=True)
             scenario = preset
         command.check_png(out)
-        resolved = scenarios.resolve(scenario, set_ or [])
+        resolved = _shown(scenario, set_ or [])
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)
@@ -503,9 +558,14 @@ def evaluate(
         ),
     ],
     seeds: Annotated[
-        int, typer.Option(min=1, help="Episodes (seeds 0..N-1; training never uses them).")
-    ],
-    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
+        int,
+        typer.Option(
+            min=1, max=MAX_SEEDS, help="Episodes (seeds 0..N-1; training never uses them)."
+        ),
+    ] = EVAL_SEEDS,
+    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")] = Path(
+        "eval.csv"
+    ),
     scenario: Annotated[
         str | None,
         typer.Option(help="A preset or scenario file (default: the agent's own, as trained)."),
@@ -532,6 +592,7 @@ def evaluate(
     """
     with _command(verbose):
         run = _run_options(backend, address, workers, quiet)
+        _check_out(out, folder=False)
         from anonloc_cli import learning
 
         status = learning.evaluate(

@@ -8,7 +8,11 @@ whose pixels are the image units, set ``image_pixels_per_unit = 1``, ``image_siz
 ``principal_point = [W / 2, H / 2]``: then ``u = col + 0.5`` and ``v = H - row - 0.5`` (pixel
 centres; ``v`` is up).
 
-Frames are the folder's ``.png``, ``.jpg`` and ``.jpeg`` files in name order, numbered from 0.
+Frames are the folder's ``.png``, ``.jpg`` and ``.jpeg`` files in name order, numbered from 0;
+the other files are skipped, and the command says how many. Each frame's size is read from its
+file header before it is decoded: a frame of the wrong size (or a header claiming 30000 x 30000
+pixels) is refused without decoding it. An unreadable frame stops the command, or with
+``--skip-bad`` is skipped and named in the summary (the frame numbers of the others stay).
 Columns of the output (one row per detection; a frame without detections has none):
 
 * ``frame``: the frame's number;
@@ -50,7 +54,65 @@ def frame_files(folder: Path) -> list[Path]:
     return files
 
 
-def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool) -> int:
+class BadFrameError(ValueError):
+    """A frame that cannot be used: unreadable, or not the camera's size."""
+
+
+def header_size(path: Path) -> tuple[int, int]:
+    """``(width, height)`` from a PNG or JPEG file's header, without decoding the pixels."""
+    with open(path, "rb") as file:
+        head = file.read(24)
+        if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+            return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+        if head[:2] == b"\xff\xd8":
+            file.seek(2)
+            return _jpeg_size(file)
+    raise BadFrameError("not a PNG or JPEG file")
+
+
+def _jpeg_size(file: Any) -> tuple[int, int]:
+    """The size in a JPEG's first start-of-frame segment (``file`` just after its SOI)."""
+    while True:
+        marker = file.read(2)
+        if len(marker) < 2 or marker[0] != 0xFF:
+            raise BadFrameError("a JPEG without a readable frame header")
+        kind = marker[1]
+        if kind == 0xFF:  # fill byte
+            file.seek(-1, 1)
+            continue
+        length = int.from_bytes(file.read(2), "big")
+        if 0xC0 <= kind <= 0xCF and kind not in (0xC4, 0xC8, 0xCC):
+            segment = file.read(5)
+            if len(segment) < 5:
+                raise BadFrameError("a truncated JPEG frame header")
+            return int.from_bytes(segment[3:5], "big"), int.from_bytes(segment[1:3], "big")
+        if length < 2:
+            raise BadFrameError("a JPEG segment of impossible length")
+        file.seek(length - 2, 1)
+
+
+def read_frame(cv2: Any, path: Path, shape: tuple[int, int]) -> Any:
+    """The grayscale frame at ``path``, checked against the camera's ``(height, width)`` from
+    its header first (no decoding of a wrong or hostile size)."""
+    try:
+        width, height = header_size(path)
+    except OSError as error:
+        raise BadFrameError(f"cannot read {path.name} ({error.strerror})") from None
+    except BadFrameError as error:
+        raise BadFrameError(f"{path.name}: {error}") from None
+    if (height, width) != shape:
+        raise BadFrameError(
+            f"{path.name} is {width} x {height} pixels but the camera file describes a "
+            f"{shape[1]} x {shape[0]} image; set camera.image_size and "
+            "camera.image_pixels_per_unit to match the frames"
+        )
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None or image.shape != shape:
+        raise BadFrameError(f"cannot read {path.name} as an image")
+    return image
+
+
+def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool, skip_bad: bool = False) -> int:
     """Detect the markers in every frame of ``folder``; write the rows to ``out``."""
     from anonloc_env.images import MarkerDetector, pixel_frame
     from anonloc_env.images._cv import import_cv2
@@ -66,18 +128,19 @@ def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool) -> int:
     except ValueError as error:
         raise InputError(str(error)) from None
     detector = MarkerDetector(grid, marker_cell_pixels(config))
+    others = sorted(p.name for p in folder.iterdir() if p.is_file() and p not in files)
     rows: list[dict[str, Any]] = []
+    skipped: list[str] = []
     with progress(len(files), "detect", quiet=quiet, unit="frame") as bar:
         for index, path in enumerate(files):
-            image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-            if image is None:
-                raise InputError(f"cannot read {str(path)!r} as an image")
-            if image.shape != grid.shape:
-                raise InputError(
-                    f"{path.name} is {image.shape[1]} x {image.shape[0]} pixels but the camera "
-                    f"file describes a {grid.width} x {grid.height} image; set "
-                    f"camera.image_size and camera.image_pixels_per_unit to match the frames"
-                )
+            try:
+                image = read_frame(cv2, path, grid.shape)
+            except BadFrameError as error:
+                if not skip_bad:
+                    raise InputError(f"{error} (--skip-bad skips such frames)") from None
+                skipped.append(str(error))
+                bar.update()
+                continue
             for u, v, theta in detector.detect(image).tolist():
                 rows.append(
                     {
@@ -92,6 +155,7 @@ def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool) -> int:
         {camera.name: config_to_dict(config)},
         folder=str(folder),
         frames=[p.name for p in files],
+        skipped_frames=skipped,
         pixels_per_unit=grid.pixels_per_unit,
     )
     if out.suffix.lower() == ".parquet":
@@ -100,5 +164,11 @@ def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool) -> int:
         store.write_csv(out, rows, list(TYPES))
     store.write_json(store.meta_path(out), record)
     wall = time.perf_counter() - start
-    echo(f"wrote {out}: {len(rows)} detections in {len(files)} frames ({wall:.1f} s)")
+    used = len(files) - len(skipped)
+    echo(f"wrote {out}: {len(rows)} detections in {used} frames ({wall:.1f} s)")
+    if others:
+        shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+        echo(f"skipped {len(others)} files that are not .png/.jpg/.jpeg: {shown}", err=True)
+    for problem in skipped:
+        echo(f"skipped frame: {problem}", err=True)
     return 0

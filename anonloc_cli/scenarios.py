@@ -68,7 +68,31 @@ def resolve(text: str, sets: Sequence[str] = ()) -> Scenario:
             f"unknown scenario {text!r}{did_you_mean(text, presets)}; valid: a preset {presets} "
             f"or a scenario file ending in {', '.join(SCENARIO_SUFFIXES)}"
         )
-    return build(name, apply_sets(spec, sets))
+    before = spec.get("preset", "default")
+    spec = apply_sets(spec, sets)
+    after = spec.get("preset", "default")
+    if after != before:  # --set preset=...: the rows say which preset ran
+        name = after if text in presets else f"{name}+{after}"
+    return build(name, spec)
+
+
+def distinct(scenarios: Sequence[Scenario], texts: Sequence[str]) -> list[Scenario]:
+    """``scenarios`` (resolved from ``texts``) renamed where two different ones share a name
+    (``a/ten.toml`` and ``b/ten.toml``): each is then called by its path, so that no summary
+    row pools them and each keeps its own config in the metadata."""
+    specs: dict[str, list[str]] = {}
+    for scenario in scenarios:
+        key = json.dumps(scenario.spec, sort_keys=True)
+        if key not in specs.setdefault(scenario.name, []):
+            specs[scenario.name].append(key)
+    out = []
+    for scenario, text in zip(scenarios, texts, strict=True):
+        if len(specs[scenario.name]) > 1:
+            path = Path(text)
+            label = str(path.with_suffix("")) if path.suffix else text
+            scenario = Scenario(label, scenario.spec, scenario.config)
+        out.append(scenario)
+    return out
 
 
 def apply_sets(spec: dict[str, Any], sets: Sequence[str]) -> dict[str, Any]:
@@ -87,6 +111,8 @@ def build(name: str, spec: Mapping[str, Any]) -> Scenario:
         plain = json.loads(json.dumps(spec))  # lists for tuples; refuses what JSON cannot hold
     except (TypeError, ValueError) as error:
         raise InputError(f"scenario {name!r}: {error}") from error
+    except RecursionError:
+        raise InputError(f"scenario {name!r}: a value is nested too deeply") from None
     try:
         config = make_config(**plain)
     except (TypeError, ValueError) as error:
@@ -98,14 +124,20 @@ def read_file(path: Path) -> dict[str, Any]:
     """A scenario file's mapping (TOML or YAML)."""
     if not path.is_file():
         raise InputError(f"scenario file {str(path)!r} not found")
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise InputError(
+            f"scenario file {str(path)!r} is not UTF-8 text (byte {error.start}: "
+            f"{error.reason}); save it as UTF-8"
+        ) from None
     try:
         if path.suffix.lower() == ".toml":
             data: Any = _toml().loads(text)
         else:
-            import yaml
-
-            data = yaml.safe_load(text)
+            data = _yaml_load(text)
+    except RecursionError:
+        raise InputError(f"scenario file {str(path)!r} is nested too deeply") from None
     except Exception as error:
         raise InputError(f"scenario file {str(path)!r} is not valid: {error}") from error
     if data is None:
@@ -116,6 +148,35 @@ def read_file(path: Path) -> dict[str, Any]:
             f"got {type(data).__name__}"
         )
     return dict(data)
+
+
+def _yaml_load(text: str) -> Any:
+    """YAML as plain data, stricter than ``yaml.safe_load``: no aliases (a few hundred bytes of
+    nested aliases expand to gigabytes) and no duplicate keys (TOML refuses them too)."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            if self.check_event(yaml.AliasEvent):
+                mark = self.peek_event().start_mark
+                raise yaml.YAMLError(
+                    f"aliases (*name) are not accepted in scenario files ({mark}); write the "
+                    "value out"
+                )
+            return super().compose_node(parent, index)
+
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                if isinstance(key, list | dict):
+                    continue  # unhashable: construct_mapping itself refuses it
+                if key in seen:
+                    raise yaml.YAMLError(f"duplicate key {key!r} ({key_node.start_mark})")
+                seen.add(key)
+            return super().construct_mapping(node, deep=deep)
+
+    return yaml.load(text, Loader=Loader)  # a SafeLoader subclass: plain data only
 
 
 def _toml() -> Any:
@@ -148,6 +209,8 @@ def parse_set(item: str) -> tuple[str, Any]:
             return key, parse(raw)
         except (ValueError, SyntaxError):
             continue
+        except (RecursionError, MemoryError):
+            raise InputError(f"--set {key}: the value is nested too deeply") from None
     return key, raw
 
 

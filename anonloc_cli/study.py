@@ -194,7 +194,8 @@ def main(
     report, records = jobs.run_stored(everything, out / "study.jsonl", run, description="study")
     for sweep in chosen:
         _write(sweep, work[sweep.name], records, out, seeds=seeds, backend=run.backend)
-    wrote = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''} to {out}"
+    files = ", ".join(f"{s.name}.{{png,svg,csv,meta.json}}" for s in chosen)
+    wrote = f"{len(chosen)} sweep{'s' if len(chosen) > 1 else ''} to {out}: {files}"
     return jobs.finish(report, wrote=wrote, what="episodes", seconds=time.perf_counter() - start)
 
 

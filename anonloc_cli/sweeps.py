@@ -18,6 +18,9 @@ from typing import Any
 
 #: Episodes per point and policy by default: ``anonloc study`` runs in a few minutes on 2 cores.
 DEFAULT_SEEDS = 6
+#: Most seeds a command takes (``--seeds``): its units are built before any runs, and ten
+#: million of them would not fit in memory.
+MAX_SEEDS = 100_000
 #: Robots in every sweep but ``robots`` (the default preset's 4 make most questions too easy).
 ROBOTS = 10
 #: Pictures per episode (the ``blackout`` sweep adds its own).

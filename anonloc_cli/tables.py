@@ -71,14 +71,18 @@ def markdown(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     )
 
 
+#: Widest a printed table gets (columns): it fits a terminal of that width, headers wrapping.
+WIDTH = 100
+
+
 def show(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
     """Print a table to the terminal with rich."""
     from rich.console import Console
     from rich.table import Table
 
     console = Console()
-    if not console.is_terminal:  # a pipe or a log file: no terminal width to respect
-        console = Console(width=max(console.width, 140))
+    if not console.is_terminal or console.width > WIDTH:  # a pipe, a log file, a wide terminal
+        console = Console(width=WIDTH)
     table = Table(title=title, title_justify="left")
     for i, header in enumerate(headers):
         table.add_column(header, justify="left" if i == 0 else "right", no_wrap=i == 0)

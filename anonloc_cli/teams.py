@@ -106,7 +106,8 @@ def check_team(
     try:
         build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
     except (TypeError, ValueError) as error:
-        raise InputError(f"policy {policy!r}: {error}") from error
+        text = str(error).removeprefix("Error: ")  # SB3's own messages start with "Error: "
+        raise InputError(f"policy {policy!r}: {text}") from error
 
 
 def play(unit: Any) -> Any:

@@ -62,7 +62,11 @@ def check_pair(
     """
     if isinstance(value, np.ndarray):
         value = value.tolist()
-    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+    if (
+        isinstance(value, str | bytes | bytearray)
+        or not isinstance(value, Sequence)
+        or len(value) != 2
+    ):
         raise TypeError(f"{name} must be a pair (a, b) of numbers, got {value!r}")
     for i, item in enumerate(value):
         check_number(f"{name}[{i}]", item, low, high, low_open=low == 0.0)

@@ -35,6 +35,11 @@ MAX_SUBSTEPS = 1000
 #: float32 (observations are float32), so that no detection can become infinite.
 MAX_LENGTH = 1e6
 MAX_IMAGE_COORDINATE = 1e9
+#: Upper bound of each reward weight and of ``reward.turn_cost``: rewards stay finite.
+MAX_WEIGHT = 1e6
+#: Fewest pixels per marker cell ``camera.image_pixels_per_unit`` may give (the image source
+#: draws and blurs the marker at that scale; below it the blur grows without bound).
+MIN_CELL_PIXELS = 0.1
 
 
 @dataclass(frozen=True)
@@ -118,7 +123,8 @@ class CameraConfig:
             the ``images`` extra). With ``"image"`` the errors are the detector's own:
             ``pixel_noise``, ``orientation_noise_deg``, ``p_miss`` and ``false_positives`` are not
             applied, and the sensor model localizers build uses the measured values instead.
-        image_pixels_per_unit: pixels of the rendered image per image unit, in (0, 1000].
+        image_pixels_per_unit: pixels of the rendered image per image unit, in (0, 1000],
+            and at least what gives a marker cell 0.1 pixel (:data:`MIN_CELL_PIXELS`).
             ``None`` chooses it so that one cell of a robot's marker spans 5 pixels (a marker of
             30 pixels). Detections are converted back to image units.
         image_blur: standard deviation of the Gaussian blur of the rendered image (pixels), in
@@ -256,10 +262,13 @@ class RewardConfig:
 
     Attributes:
         information_weight: reward per nat of information gained about the robot's identity,
-            in [0, inf).
-        energy_weight: reward lost per metre of wheel travel (1/m), in [0, inf).
-        turn_cost: wheel travel per radian turned in place (m/rad), in [0, inf); ``None`` uses
+            in [0, 1e6].
+        energy_weight: reward lost per metre of wheel travel (1/m), in [0, 1e6].
+        turn_cost: wheel travel per radian turned in place (m/rad), in [0, 1e6]; ``None`` uses
             half the robot's size (a differential drive with wheels at its sides).
+
+    The bounds keep every reward finite: with ``dt``, ``robot.v_max`` and ``robot.omega_max`` at
+    their own bounds a step costs at most ``1e6 * 10 * (1e6 + 1e6 * 1e6)`` = 1e19.
     """
 
     information_weight: float = 1.0
@@ -267,10 +276,10 @@ class RewardConfig:
     turn_cost: float | None = None
 
     def __post_init__(self) -> None:
-        check_number("reward.information_weight", self.information_weight, 0.0)
-        check_number("reward.energy_weight", self.energy_weight, 0.0)
+        check_number("reward.information_weight", self.information_weight, 0.0, MAX_WEIGHT)
+        check_number("reward.energy_weight", self.energy_weight, 0.0, MAX_WEIGHT)
         if self.turn_cost is not None:
-            check_number("reward.turn_cost", self.turn_cost, 0.0)
+            check_number("reward.turn_cost", self.turn_cost, 0.0, MAX_WEIGHT)
 
 
 @dataclass(frozen=True)
@@ -333,6 +342,17 @@ class EnvConfig:
                 f"sub-steps per step (a robot moves at most a tenth of its size per sub-step); "
                 f"at most {MAX_SUBSTEPS} are allowed: lower the speeds or dt, or enlarge the robot"
             )
+        ppu = self.camera.image_pixels_per_unit
+        if ppu is not None:
+            from anonloc_env.images.marker import cell_size
+
+            low = MIN_CELL_PIXELS / (cell_size(self.robot) * self.camera.scale)
+            if ppu < low:
+                raise ValueError(
+                    f"camera.image_pixels_per_unit must be in [{low:.4g}, 1000] with "
+                    f"robot.size={self.robot.size:g} m and camera.scale={self.camera.scale:g} "
+                    f"(a marker cell of at least {MIN_CELL_PIXELS:g} pixel), got {ppu!r}"
+                )
         extent = self.camera.scale * max(self.arena_size)
         if extent > MAX_IMAGE_COORDINATE:
             raise ValueError(

@@ -80,3 +80,27 @@ def _has_children(pid: int) -> bool:
         time.sleep(3)
         return True
     return any((t / "children").read_text().split() for t in tasks.iterdir() if t.exists())
+
+
+def test_the_learned_agent_acts_the_same_on_one_or_two_workers(run: Path, tmp_path: Path) -> None:
+    outputs = []
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}.csv"
+        done = run_script(
+            "eval", "--agent", run, "--seeds", "2", "--out", out, "--workers", workers, "--quiet",
+            timeout=EVAL_LIMIT,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        outputs.append(sorted(read_csv(out), key=lambda r: (int(r["seed"]), int(r["robot"]))))
+    assert outputs[0] == outputs[1]
+
+
+def test_a_damaged_agent_file_is_one_clear_message(tmp_path: Path) -> None:
+    bad = tmp_path / "agent.zip"
+    bad.write_text("not a zip")
+    done = run_script(
+        "eval", "--agent", bad, "--scenario", "default", "--seeds", "1", "--out", tmp_path / "e.csv"
+    )
+    assert done.returncode == 2
+    assert "Error: policy 'agent': the file" in done.stderr
+    assert "Error: Error" not in done.stderr

@@ -133,3 +133,56 @@ def test_eval_runs_again_when_agent_zip_changed(tmp_path: Path) -> None:
     assert again.returncode == 0, again.stderr
     assert "(1 episodes executed, 1 reused)" not in again.stdout
     assert "(1 episodes executed, 0 reused)" in again.stdout
+
+
+def test_a_run_killed_before_its_first_checkpoint_resumes_from_step_0(tmp_path: Path) -> None:
+    run = tmp_path / "k"
+    process = start_script(
+        "train", "--timesteps", "1000000", "--n-envs", "1", "--out", tmp_path, "--name", "k",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (run / "config.json").exists():
+            time.sleep(0.02)
+        process.kill()  # kill -9: nothing can be saved
+        process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert not checkpoints(run)
+    resumed = run_script("train", "--resume", run, "--timesteps", ROLLOUT, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "training the run from step 0" in resumed.stderr
+    assert f"trained {ROLLOUT} robot-steps" in resumed.stdout
+
+
+def test_a_second_train_on_a_run_being_trained_is_refused(tmp_path: Path) -> None:
+    from agents.train import _RunLock
+
+    run = tmp_path / "r"
+    first = run_script(
+        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "r",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    with _RunLock(run):  # another process training it
+        second = run_script("train", "--resume", run, "--timesteps", 2 * ROLLOUT, "--quiet")
+    assert second.returncode == 2
+    assert "is being trained by another process" in second.stderr
+    assert [p.name for p in checkpoints(run)] == [f"agent_{ROLLOUT}_steps.zip"]
+
+
+def test_resume_honours_minutes(tmp_path: Path) -> None:
+    first = run_script(
+        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "m",
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    resumed = run_script(
+        "train", "--resume", tmp_path / "m", "--timesteps", "10000000", "--minutes", "0.01",
+        "--quiet", timeout=90,
+    )  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr
+    trained = int(resumed.stdout.split("trained ", 1)[1].split(" ", 1)[0])
+    assert ROLLOUT < trained < 10_000_000  # stopped by the 0.6 s budget, not the total

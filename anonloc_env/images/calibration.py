@@ -60,6 +60,8 @@ def estimate_homography(world_xy: np.ndarray, image_uv: np.ndarray) -> np.ndarra
         raise ValueError(
             f"need at least 4 matching points, got {len(world_xy)} and {len(image_uv)}"
         )
+    if not (np.isfinite(world_xy).all() and np.isfinite(image_uv).all()):
+        raise ValueError("the points must be finite numbers (a NaN or inf gives a NaN homography)")
     cv2 = import_cv2()
     h, _ = cv2.findHomography(
         np.asarray(world_xy, np.float64).reshape(-1, 1, 2),
@@ -80,6 +82,9 @@ def calibrate(
     The camera section of ``config`` is used with ``source="image"``; robots, arena and camera
     otherwise as given.
     """
+    for name, value in (("robots", robots), ("pictures", pictures)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     # The env imports this package (through the identifier): import it when called.
     from anonloc_env.env import AnonLocEnv
     from anonloc_env.rewards import EnergyCost

@@ -55,7 +55,8 @@ def template(pixels_per_cell: int, smoothing: float = 0.0) -> np.ndarray:
 
     Row 0 is the robot's front. ``smoothing`` is the standard deviation (template pixels) of the
     Gaussian applied before the template is shrunk onto the image, which keeps its edges from
-    aliasing.
+    aliasing; it is capped at the template's side (a wider blur leaves it uniform grey anyway,
+    and an unbounded one made OpenCV build a kernel without end).
     """
     cv2 = import_cv2()
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY))
@@ -66,5 +67,6 @@ def template(pixels_per_cell: int, smoothing: float = 0.0) -> np.ndarray:
     lo = 2 * pixels_per_cell
     out[lo : lo + marker.shape[0], lo : lo + marker.shape[1]] = np.where(marker > 127, WHITE, BLACK)
     if smoothing > 0.0:
-        out = cv2.GaussianBlur(out, (0, 0), smoothing, borderType=cv2.BORDER_REPLICATE)
+        sigma = min(smoothing, float(side))
+        out = cv2.GaussianBlur(out, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
     return out
