@@ -9,7 +9,9 @@ arrives. On the process backend (``concurrent.futures.ProcessPoolExecutor``, one
 a worker that dies (killed, out of memory, a crash in native code) breaks the pool: the units it
 held run again in a fresh pool, each at most ``retries`` more times. Workers are started with
 ``spawn``, never forked: the main process may already run threads (torch starts its own when a
-command loads an agent), and a fork of a threaded process can deadlock in the child. On the Ray
+command loads an agent), and a fork of a threaded process can deadlock in the child (a script
+calling :func:`run_units` must therefore guard its work with ``if __name__ == "__main__":``,
+as every spawn-based pool asks). On the Ray
 backend (``--backend ray``) the same units run as Ray tasks with ``max_retries`` doing the
 same. Nothing else differs between the two. An exception raised by a unit itself is a bug, not
 bad luck: it stops the command (the units already finished stay in the store).
