@@ -37,6 +37,9 @@ MAX_LENGTH = 1e6
 MAX_IMAGE_COORDINATE = 1e9
 #: Upper bound of each reward weight and of ``reward.turn_cost``: rewards stay finite.
 MAX_WEIGHT = 1e6
+#: Cells across the square drawn on a robot in rendered images: the marker (6 cells, border
+#: included) and its white quiet zone (``anonloc_env.images.marker``).
+MARKER_TEMPLATE_CELLS = 10
 #: Fewest pixels per marker cell ``camera.image_pixels_per_unit`` may give (the image source
 #: draws and blurs the marker at that scale; below it the blur grows without bound).
 MIN_CELL_PIXELS = 0.1
@@ -80,6 +83,14 @@ class RobotConfig:
     def radius(self) -> float:
         """Radius of the smallest circle around the robot (m)."""
         return self.size / math.sqrt(2.0) if self.shape == "square" else self.size / 2.0
+
+    @property
+    def marker_cell(self) -> float:
+        """Side of one cell of the marker the robot wears in rendered images (m): the square
+        drawn on it (the robot's side, or the largest square in its circle) is
+        :data:`MARKER_TEMPLATE_CELLS` cells wide (see ``anonloc_env.images.marker``)."""
+        side = self.size if self.shape == "square" else self.size / math.sqrt(2.0)
+        return side / MARKER_TEMPLATE_CELLS
 
 
 @dataclass(frozen=True)
@@ -344,9 +355,7 @@ class EnvConfig:
             )
         ppu = self.camera.image_pixels_per_unit
         if ppu is not None:
-            from anonloc_env.images.marker import cell_size
-
-            low = MIN_CELL_PIXELS / (cell_size(self.robot) * self.camera.scale)
+            low = MIN_CELL_PIXELS / (self.robot.marker_cell * self.camera.scale)
             if ppu < low:
                 raise ValueError(
                     f"camera.image_pixels_per_unit must be in [{low:.4g}, 1000] with "

@@ -102,5 +102,6 @@ def test_a_damaged_agent_file_is_one_clear_message(tmp_path: Path) -> None:
         "eval", "--agent", bad, "--scenario", "default", "--seeds", "1", "--out", tmp_path / "e.csv"
     )
     assert done.returncode == 2
-    assert "Error: policy 'agent': the file" in done.stderr
+    assert "Error: policy 'agent':" in done.stderr
+    assert "is not a saved agent" in done.stderr
     assert "Error: Error" not in done.stderr

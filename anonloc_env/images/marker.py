@@ -13,11 +13,9 @@ robot's heading, so the heading is read from the corner order.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from anonloc_env.config import RobotConfig
+from anonloc_env.config import MARKER_TEMPLATE_CELLS, RobotConfig
 from anonloc_env.images._cv import import_cv2
 
 DICTIONARY = "DICT_4X4_50"
@@ -26,8 +24,9 @@ MARKER_ID = 0
 """The one id every robot wears."""
 MARKER_CELLS = 6
 """Cells across the marker, border included."""
-TEMPLATE_CELLS = 10
-"""Cells across the square drawn on a robot: body, quiet zone, marker, quiet zone, body."""
+TEMPLATE_CELLS = MARKER_TEMPLATE_CELLS
+"""Cells across the square drawn on a robot: body, quiet zone, marker, quiet zone, body (the
+config's, which bounds ``camera.image_pixels_per_unit`` with it)."""
 
 FLOOR = 150
 """Grey level of the arena floor."""
@@ -40,9 +39,8 @@ BLACK = 20
 
 
 def cell_size(robot: RobotConfig) -> float:
-    """Side of one marker cell on the robot (m)."""
-    side = robot.size if robot.shape == "square" else robot.size / math.sqrt(2.0)
-    return side / TEMPLATE_CELLS
+    """Side of one marker cell on the robot (m): ``RobotConfig.marker_cell``."""
+    return robot.marker_cell
 
 
 def marker_size(robot: RobotConfig) -> float:
