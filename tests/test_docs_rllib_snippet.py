@@ -1,4 +1,4 @@
-"""The RLlib snippet of docs/agents.md, run as printed (one iteration instead of 20).
+"""The RLlib snippet of docs/rllib.md, run as printed (one iteration instead of 20).
 
 It crashed after training: ``save_to_path("runs/rllib")`` handed pyarrow a relative path
 ("URI has empty scheme") and the trained algorithm was lost.
@@ -16,12 +16,12 @@ import pytest
 
 from tests.cli_helpers import ROOT
 
-DOC = ROOT / "docs" / "agents.md"
+DOC = ROOT / "docs" / "rllib.md"
 
 
 def rllib_snippet() -> str:
-    """The python block under "Scaling out with RLlib"."""
-    section = DOC.read_text().split("## Scaling out with RLlib", 1)[1]
+    """The python block under "The same agent in RLlib"."""
+    section = DOC.read_text().split("## The same agent in RLlib", 1)[1]
     found = re.search(r"```python\n(.*?)```", section, re.S)
     assert found is not None, "the RLlib section lost its snippet"
     return found.group(1)
@@ -45,3 +45,4 @@ def test_the_docs_rllib_snippet_runs_and_saves(tmp_path: Path) -> None:
     saved = tmp_path / "runs" / "rllib"
     assert saved.is_dir(), "the trained algorithm was not saved"
     assert any(saved.iterdir()), "the trained algorithm was not saved"
+    assert (saved / "agent.zip").is_file(), "export_agent wrote no agent"
