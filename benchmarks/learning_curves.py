@@ -4,9 +4,11 @@ Usage::
 
     python benchmarks/learning_curves.py runs/free-10 runs/swarm-10 --out curves.png
 
-Two panels against the robot-decisions trained on: the mean episode return per robot
-(``rollout/ep_rew_mean``) and the share of the robots present in an episode's last picture that
-were identified (``identify/correct_at_end``). Needs matplotlib (the ``cli`` extra).
+Three panels against the robot-decisions trained on: the mean episode return per robot
+(``rollout/ep_rew_mean``), the share of the robots present in an episode's last picture that
+were identified (``identify/correct_at_end``), and the censored pictures to 99 % of the progress
+display's evaluation seeds (``eval/pictures_to_99``; runs without it leave the panel empty).
+Needs matplotlib (the ``cli`` extra).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 PANELS = (
     ("rollout/ep_rew_mean", "episode return per robot"),
     ("identify/correct_at_end", "identified at the episode's end"),
+    ("eval/pictures_to_99", "pictures to 99 % (evaluation seeds)"),
 )
 
 
@@ -52,7 +55,7 @@ def main() -> None:
         raise SystemExit(
             f"the plot needs matplotlib: pip install 'anonloc[cli]' ({error})"
         ) from None
-    fig, axes = plt.subplots(1, len(PANELS), figsize=(11, 3.6))
+    fig, axes = plt.subplots(1, len(PANELS), figsize=(15, 3.6))
     for run in args.runs:
         curves = read(run)
         for ax, (column, _) in zip(axes, PANELS, strict=True):
