@@ -233,7 +233,10 @@ def bench(
     ],
     policy: Annotated[
         list[str],
-        typer.Option(help="A policy: angular, linear, motion, motion3, bayes (repeatable)."),
+        typer.Option(
+            help="A policy: angular, linear, motion, motion3, bayes, agent (the bundled learned "
+            "agent) (repeatable)."
+        ),
     ],
     seeds: Annotated[
         int,

@@ -79,3 +79,21 @@ def test_no_library_module_imports_the_cli() -> None:
         if path.name != "__main__.py" and "anonloc_cli" in path.read_text()
     ]
     assert offenders == []
+
+
+def test_the_help_names_every_registered_policy_and_excitation() -> None:
+    """The help text is written out (importing the registry would cost ``anonloc --help`` about
+    half a second), so this keeps it equal to the registry: a name registered and not listed,
+    or listed and gone, fails here."""
+    import re
+
+    from baselines.registry import excitation_names, policy_names
+
+    source = (ROOT / "anonloc_cli" / "app.py").read_text()
+    text = re.sub(r'"\s*\n\s*"', "", source)  # join implicitly concatenated strings
+    policies = re.search(r"A policy: ([a-z0-9, ]+)", text)
+    excitations = re.search(r"the policy's own\): ([a-z0-9, ]+)\.", text)
+    assert policies is not None
+    assert excitations is not None
+    assert [n.strip() for n in policies.group(1).split(",")] == policy_names()
+    assert [n.strip() for n in excitations.group(1).split(",")] == excitation_names()
