@@ -12,8 +12,7 @@ from typing import Any
 from typer.testing import CliRunner
 
 from anonloc_cli.app import app
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers import ROOT
 
 
 def invoke(*args: str) -> Any:

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import anonloc_env
+
+#: The repository's root (needs nothing but the standard library).
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def constant_actions(env: Any, action: tuple[float, float]) -> dict[str, np.ndarray]:

@@ -12,8 +12,7 @@ import pytest
 import anonloc_env
 from anonloc_env.camera import Camera, Picture, detection_capacity, survey
 from anonloc_env.identify import SensorModel
-from tests.cli_helpers import ROOT
-from tests.helpers import constant_actions
+from tests.helpers import ROOT, constant_actions
 
 
 def _take(config: anonloc_env.EnvConfig, poses: np.ndarray, seed: int = 0):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli_helpers import ROOT
+from tests.helpers import ROOT
 
 DOC = ROOT / "docs" / "rllib.md"
 
