@@ -53,6 +53,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 import anonloc_env
@@ -111,7 +112,11 @@ def learn_rate(model: Any, rollouts: int) -> tuple[float, float]:
 def env_rate(vec: Any, steps: int) -> float:
     """Robot control steps per second of stepping ``vec`` with uniform random actions."""
     rng = np.random.default_rng(SEED)
-    actions = rng.uniform(-1.0, 1.0, (steps, vec.num_envs, 2)).astype(np.float32)
+    space = vec.action_space
+    if isinstance(space, gym.spaces.Discrete):  # anonloc's: which candidate
+        actions = rng.integers(0, int(space.n), (steps, vec.num_envs))
+    else:
+        actions = rng.uniform(-1.0, 1.0, (steps, vec.num_envs, 2)).astype(np.float32)
     vec.reset()
     before = getattr(vec, "control_steps", None)
     start = time.perf_counter()
