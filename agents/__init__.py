@@ -1,7 +1,7 @@
 """agents: robots that learn to move so that they are recognised.
 
 Every robot runs the same policy on its own observation: a few candidate commands drawn from its
-own generator, each scored by its own Bayesian identifier (:mod:`agents.observation`); the
+own generator, each scored by its own Bayesian identifier (:mod:`agents.candidate_features`); the
 policy picks one (:mod:`agents.features`). K copies of the env become one SB3 ``VecEnv`` with a
 slot per robot (:mod:`agents.vec`). A general agent ships with the package
 (:data:`agents.policy.BUNDLED`).

@@ -3,7 +3,7 @@
 :class:`CandidateChooser` is ``baselines.active.GreedyIdentification`` with the choice taken
 out: at every picture each robot draws its candidates from its own generator and its identifier
 predicts what each would tell (``baselines.active.GreedyIdentification.score``); the result
-is the robots' observation (:mod:`agents.observation`). The choice comes from ``decide``:
+is the robots' observation (:mod:`agents.candidate_features`). The choice comes from ``decide``:
 the trainer's (:class:`agents.crew.Crew`, the action of each slot) or a policy's
 (:class:`agents.policy.LearnedExcitation` overrides ``on_scored``). The chosen candidate is
 held until the next picture, with the back-off after a bump. Until a picture with a row has been
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from agents.observation import (
+from agents.candidate_features import (
     CANDIDATES,
     CONTEXT_FEATURES,
     belief_context,

@@ -2,9 +2,9 @@
 
 A general agent is trained across conditions so that one set of weights holds at any N, density,
 noise, clutter, camera and duty (the observation's size does not depend on any of them, see
-:mod:`agents.observation`). :func:`training_scenarios` draws them from one seed; the evaluation
-conditions of ``docs/agents.md`` are held out: their numbers of robots (10, 20, 50, 100, 1000)
-are never drawn, and their seeds are never used in training.
+:mod:`agents.candidate_features`). :func:`training_scenarios` draws them from one seed; the
+evaluation conditions of ``docs/agents.md`` are held out: their numbers of robots (10, 20, 50,
+100, 1000) are never drawn, and their seeds are never used in training.
 """
 
 from __future__ import annotations

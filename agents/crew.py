@@ -8,7 +8,7 @@ back-off after a bump), so one decision is one picture interval. The condition's
 (:func:`condition_excitation`) turns it into commands: in ``free`` motion the candidate is the
 command; on ``swarm`` duty every robot follows one shared command stream and the candidate is a
 deviation of at most ``budget`` of the robot's limits. The crew returns the policy observations
-of :mod:`agents.observation` and the reward of ``Crew.step``.
+of :mod:`agents.candidate_features` and the reward of ``Crew.step``.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agents.candidate_features import CANDIDATES, information, true_belief, true_rows
 from agents.candidates import CandidateChooser
-from agents.observation import CANDIDATES, information, true_belief, true_rows
 from anonloc_env.actions import to_commands
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import energy

@@ -1,12 +1,12 @@
 """The learned excitation's network: a scorer over a robot's candidate commands.
 
 :class:`CandidateScorer` (plain torch, shared by the SB3 policy and the RLlib module) reads one
-robot's observation (:mod:`agents.observation`): ``C`` candidates and the robot's context. Each
-candidate is encoded with the context by one shared network ``phi``; the encodings are averaged
-(Deep Sets, Zaheer et al., 2017); each candidate's logit is ``score(phi_c, mean)`` and the value
-is ``value(context, mean)``. So the logits are equivariant and the value invariant to the order
-of the candidates, and no weight depends on N, the camera or the clutter: one set of weights runs
-everywhere.
+robot's observation (:mod:`agents.candidate_features`): ``C`` candidates and the robot's
+context. Each candidate is encoded with the context by one shared network ``phi``; the encodings
+are averaged (Deep Sets, Zaheer et al., 2017); each candidate's logit is ``score(phi_c, mean)``
+and the value is ``value(context, mean)``. So the logits are equivariant and the value invariant
+to the order of the candidates, and no weight depends on N, the camera or the clutter: one set
+of weights runs everywhere.
 
 :class:`CandidatePolicy` is that scorer as an SB3 ``ActorCriticPolicy`` over the discrete choice
 of a candidate::
@@ -28,7 +28,7 @@ from stable_baselines3.common.distributions import Distribution
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
-from agents.observation import CANDIDATE_FEATURES, CONTEXT_FEATURES
+from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES
 
 
 def _mlp(sizes: list[int], last_activation: bool = True) -> nn.Sequential:
@@ -78,8 +78,8 @@ class CandidatePolicy(ActorCriticPolicy):
     """:class:`CandidateScorer` as an SB3 actor-critic over ``Discrete(C)`` (which candidate).
 
     Args:
-        observation_space: :func:`agents.observation.policy_observation_space`.
-        action_space: :func:`agents.observation.policy_action_space`.
+        observation_space: :func:`agents.candidate_features.policy_observation_space`.
+        action_space: :func:`agents.candidate_features.policy_action_space`.
         lr_schedule: SB3's learning-rate schedule.
         hidden: width of the scorer's encodings.
         **kwargs: passed to ``ActorCriticPolicy`` (``net_arch`` is not used).

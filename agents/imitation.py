@@ -1,7 +1,7 @@
 """Imitation of the ``greedy`` excitation: the starting point of PPO.
 
 The learned excitation chooses among the same candidates that ``greedy`` scores
-(:mod:`agents.observation`), so ``greedy``'s choice is a label for every observation:
+(:mod:`agents.candidate_features`), so ``greedy``'s choice is a label for every observation:
 :func:`collect_demonstrations` drives the robots of a vectorized env with it and records the
 observations, the labels and the discounted returns; :func:`imitate` fits the policy's logits to
 the labels (cross-entropy) and its value to the returns (squared error). PPO then starts from a

@@ -1,7 +1,7 @@
 """The crew's robots as a PettingZoo ``ParallelEnv``: what a multi-agent library (RLlib) trains on.
 
 :class:`BeliefParallelEnv` wraps one :class:`agents.crew.Crew`, so every robot sees the
-belief-annotated observation of :mod:`agents.observation` and gets the crew's reward, exactly as
+candidate observation of :mod:`agents.candidate_features` and gets the crew's reward, exactly as
 in a slot of :class:`agents.vec.AnonLocVecEnv`; here each robot is a PettingZoo agent instead of
 a slot. The crew computes everything for the R robots at once; this adapter only hands out row
 views of its batched arrays.
@@ -22,14 +22,14 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from agents.crew import Crew
-from agents.observation import (
+from agents.candidate_features import (
     CANDIDATE_FEATURES,
     CANDIDATES,
     CONTEXT_FEATURES,
     policy_action_space,
     policy_observation_space,
 )
+from agents.crew import Crew
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import PRESETS
@@ -66,7 +66,7 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
 
     ## Observation Space
     With ``observation="dict"`` (the default) each agent gets the dict of
-    :func:`agents.observation.policy_observation_space`, the same as a slot of
+    :func:`agents.candidate_features.policy_observation_space`, the same as a slot of
     :class:`agents.vec.AnonLocVecEnv`. With ``observation="flat"`` it gets those two arrays
     concatenated into one float32 vector of :func:`flat_size` entries (``candidates``
     row-major, then ``context``): the form RLlib's modules take (:func:`unflatten` undoes it).

@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from agents.candidates import CandidateChooser
 from agents.crew import condition_excitation
-from agents.observation import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.localizers import BayesLocalizer
@@ -50,7 +50,7 @@ def draw(logits: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
 
 class LearnedExcitation(CandidateChooser):
     """The robots' commands from a trained policy: at every picture each robot's candidates are
-    scored (:mod:`agents.observation`) and one is drawn with the robot's own generator; it is
+    scored (:mod:`agents.candidate_features`) and one is drawn with the robot's own generator; it is
     held until the next picture, with the back-off after a bump (as in training).
 
     It must be the excitation of a team whose localizer is a ``BayesLocalizer`` (the scores are
@@ -103,7 +103,7 @@ def check_layout(path: Path) -> None:
 
     Raises:
         ValueError: the file is not an SB3 save, or its observations are not
-            :data:`agents.observation.LAYOUT`'s.
+            :data:`agents.candidate_features.LAYOUT`'s.
     """
     try:
         with zipfile.ZipFile(path) as archive:
@@ -114,7 +114,8 @@ def check_layout(path: Path) -> None:
     if b"candidates" not in space or b"context" not in space:
         raise ValueError(
             f"{path} was trained on an older observation layout (the picture's rows); this "
-            f"anonloc reads layout {LAYOUT} (scored candidate commands, see agents.observation). "
+            f"anonloc reads layout {LAYOUT} (scored candidate commands, see "
+            "agents.candidate_features). "
             "Retrain it with `anonloc train`, or use the bundled agent."
         )
 

@@ -4,7 +4,7 @@ The slots of copy ``k`` follow those of copy ``k - 1`` (with one scenario, slot 
 robot ``i`` of copy ``k``); one policy acts for every slot (parameter sharing: identical robots,
 one controller). The copies may hold different scenarios (``configs``: training across
 conditions), with different numbers of robots. Observations are the belief-annotated dicts of
-:mod:`agents.observation`, batched as ``(K * N, ...)`` arrays.
+:mod:`agents.candidate_features`, batched as ``(K * N, ...)`` arrays.
 
 What it guarantees (each is tested):
 
@@ -35,9 +35,9 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from agents.candidate_features import CANDIDATES, policy_action_space, policy_observation_space
 from agents.conditions import ConditionRanges, Scenario, draw_scenario
 from agents.crew import Crew
-from agents.observation import CANDIDATES, policy_action_space, policy_observation_space
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import EnergyCost

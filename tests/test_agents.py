@@ -15,15 +15,15 @@ import torch
 
 import anonloc_env
 import baselines
-from agents.candidates import CandidateChooser
-from agents.features import CandidatePolicy, CandidateScorer
-from agents.observation import (
+from agents.candidate_features import (
     CANDIDATE_FEATURES,
     CANDIDATES,
     CONTEXT_FEATURES,
     policy_action_space,
     policy_observation_space,
 )
+from agents.candidates import CandidateChooser
+from agents.features import CandidatePolicy, CandidateScorer
 from agents.policy import LearnedExcitation, draw, load_model
 from agents.vec import AnonLocVecEnv
 from baselines.active import GreedyIdentification

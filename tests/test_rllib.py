@@ -15,7 +15,7 @@ from pettingzoo.test import parallel_api_test
 
 import anonloc_env
 import baselines
-from agents.observation import CANDIDATE_FEATURES, CANDIDATES, CONTEXT_FEATURES
+from agents.candidate_features import CANDIDATE_FEATURES, CANDIDATES, CONTEXT_FEATURES
 from agents.pettingzoo import BeliefParallelEnv, flat_size, flatten, unflatten
 from agents.vec import AnonLocVecEnv
 from anonloc_env import make_config

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import anonloc_env
-from agents.observation import CANDIDATE_FEATURES, CANDIDATES, CONTEXT_FEATURES
+from agents.candidate_features import CANDIDATE_FEATURES, CANDIDATES, CONTEXT_FEATURES
 from agents.pettingzoo import BeliefParallelEnv
 from anonloc_env import make_config
 
