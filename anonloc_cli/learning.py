@@ -139,18 +139,6 @@ def agent_scenario(agent: Path) -> Scenario:
     return scenarios.build(folder.name, spec)
 
 
-#: ``--agent bundled``: the agent that ships with the package.
-BUNDLED_NAME = "bundled"
-
-
-def bundled_agent() -> Path:
-    """The bundled agent's file (needs the rl extra)."""
-    _rl_modules()  # says which extra to install
-    from agents.policy import BUNDLED
-
-    return BUNDLED
-
-
 def agent_file(agent: Path) -> Path:
     """The agent file of ``agent`` (an ``agent.zip`` or its run folder)."""
     return agent / "agent.zip" if agent.is_dir() else agent
@@ -179,8 +167,11 @@ def evaluate(
     """Evaluate ``agent`` and the ``against`` excitations; the exit status."""
     from anonloc_cli import bench, scenarios, teams
 
+    _rl_modules()  # an agent needs the rl extra: say which to install
+    from agents.policy import BUNDLED, BUNDLED_NAME
+
     if str(agent) == BUNDLED_NAME:
-        agent = bundled_agent()
+        agent = BUNDLED
         scenario = "default" if scenario is None else scenario
     path = agent.resolve()
     if not (path.is_file() or (path / "agent.zip").is_file()):
