@@ -7,6 +7,7 @@ skips a damaged newest checkpoint, and ``eval`` notices that ``agent.zip`` chang
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import time
@@ -57,6 +58,16 @@ def stop_after_two_rollouts(out: Path, name: str, signum: int) -> subprocess.Com
     return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
 
 
+def train_tiny(out: Path, name: str, steps: int) -> subprocess.CompletedProcess[str]:
+    """A tiny run ``out/name`` of ``steps`` robot-steps, trained by the console script."""
+    done = run_script(
+        "train", "--timesteps", steps, "--n-envs", "1", "--out", out, "--name", name,
+        "--quiet", *TINY,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return done
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
 def test_a_stopped_run_saves_and_resume_continues_keeping_the_log(
     tmp_path: Path, signum: int
@@ -84,11 +95,7 @@ def test_a_stopped_run_saves_and_resume_continues_keeping_the_log(
 
 
 def test_resume_keeps_the_runs_own_budget_and_shows_it(tmp_path: Path) -> None:
-    first = run_script(
-        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "b",
-        "--quiet", *TINY,
-    )  # fmt: skip
-    assert first.returncode == 0, first.stderr
+    first = train_tiny(tmp_path, "b", ROLLOUT)
     assert f"trained {ROLLOUT} robot-steps" in first.stdout
     again = run_script("train", "--resume", tmp_path / "b", "--quiet", timeout=90)
     assert again.returncode == 0, again.stderr
@@ -101,11 +108,7 @@ def test_resume_keeps_the_runs_own_budget_and_shows_it(tmp_path: Path) -> None:
 
 
 def test_resume_skips_a_truncated_checkpoint_and_says_so(tmp_path: Path) -> None:
-    first = run_script(
-        "train", "--timesteps", 2 * ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "t",
-        "--quiet", *TINY,
-    )  # fmt: skip
-    assert first.returncode == 0, first.stderr
+    train_tiny(tmp_path, "t", 2 * ROLLOUT)
     run = tmp_path / "t"
     good = checkpoints(run)[-1]
     damaged = run / "checkpoints" / f"agent_{3 * ROLLOUT}_steps.zip"
@@ -119,11 +122,7 @@ def test_resume_skips_a_truncated_checkpoint_and_says_so(tmp_path: Path) -> None
 
 
 def test_eval_runs_again_when_agent_zip_changed(tmp_path: Path) -> None:
-    first = run_script(
-        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "e",
-        "--quiet", *TINY,
-    )  # fmt: skip
-    assert first.returncode == 0, first.stderr
+    train_tiny(tmp_path, "e", ROLLOUT)
     run, out = tmp_path / "e", tmp_path / "e.csv"
     args = ["eval", "--agent", run, "--seeds", "1", "--out", out, "--workers", "1", "--quiet"]
     assert run_script(*args, timeout=120).returncode == 0
@@ -161,11 +160,7 @@ def test_a_second_train_on_a_run_being_trained_is_refused(tmp_path: Path) -> Non
     from agents.train import _RunLock
 
     run = tmp_path / "r"
-    first = run_script(
-        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "r",
-        "--quiet", *TINY,
-    )  # fmt: skip
-    assert first.returncode == 0, first.stderr
+    train_tiny(tmp_path, "r", ROLLOUT)
     with _RunLock(run):  # another process training it
         second = run_script("train", "--resume", run, "--timesteps", 2 * ROLLOUT, "--quiet")
     assert second.returncode == 2
@@ -174,11 +169,7 @@ def test_a_second_train_on_a_run_being_trained_is_refused(tmp_path: Path) -> Non
 
 
 def test_resume_honours_minutes(tmp_path: Path) -> None:
-    first = run_script(
-        "train", "--timesteps", ROLLOUT, "--n-envs", "1", "--out", tmp_path, "--name", "m",
-        "--quiet", *TINY,
-    )  # fmt: skip
-    assert first.returncode == 0, first.stderr
+    train_tiny(tmp_path, "m", ROLLOUT)
     resumed = run_script(
         "train", "--resume", tmp_path / "m", "--timesteps", "10000000", "--minutes", "0.01",
         "--quiet", timeout=90,
@@ -186,3 +177,25 @@ def test_resume_honours_minutes(tmp_path: Path) -> None:
     assert resumed.returncode == 0, resumed.stderr
     trained = int(resumed.stdout.split("trained ", 1)[1].split(" ", 1)[0])
     assert ROLLOUT < trained < 10_000_000  # stopped by the 0.6 s budget, not the total
+
+
+def test_train_imitates_greedy_and_ends_against_random(tmp_path: Path) -> None:
+    """``--imitation`` through the console script: the run starts from greedy's choices and its
+    last line compares it with random motion on the evaluation seeds."""
+    done = run_script(
+        "train", "--timesteps", ROLLOUT, "--imitation", "60", "--n-envs", "1", "--out", tmp_path,
+        "--name", "i", "--quiet", *TINY,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "pictures to 99 % on the evaluation seeds: this agent" in done.stdout
+    assert "random motion" in done.stdout
+    assert json.loads((tmp_path / "i" / "config.json").read_text())["train"]["imitation"] == 60
+
+
+def test_train_refuses_overrides_with_mixed_conditions(tmp_path: Path) -> None:
+    done = run_script(
+        "train", "--condition", "mixed", "--out", tmp_path, "--name", "x", "--quiet", *TINY
+    )
+    assert done.returncode == 2
+    assert "condition 'mixed' draws its scenarios" in done.stderr
+    assert not (tmp_path / "x").exists()
