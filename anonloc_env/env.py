@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import numbers
 import warnings
 from collections.abc import Mapping
@@ -297,20 +298,22 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.steps += 1
         time = self.steps * self.config.dt
         between = self._maybe_take_picture(time)
+        agents = self.agents
+        new_picture = between is not None
+        observations = self.builder.build(
+            agents, self.odometry.since_picture, motion.contact, new_picture, time
+        )
         context = StepContext(
             config=self.config,
             time=time,
             v=v,
             w=w,
             contact=motion.contact,
-            picture=self.picture if between is not None else None,
+            picture=self.picture if new_picture else None,
             interval=between if self.pictures_taken > 1 else None,
+            observed=functools.partial(self.builder.seen, new_picture, motion.contact),
         )
         reward_values = np.asarray(self.reward_fn(context), dtype=np.float64)
-        agents = self.agents
-        observations = self.builder.build(
-            agents, self.odometry.since_picture, motion.contact, between is not None, time
-        )
         rewards = dict(zip(agents, reward_values.tolist(), strict=True))
         truncated = self.steps >= self.max_cycles
         terminations = self._all_false.copy()

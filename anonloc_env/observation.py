@@ -43,6 +43,7 @@ from anonloc_env._dicts import copy_each, set_each
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
+from anonloc_env.robot_view import Step, gather_step
 
 
 def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
@@ -115,7 +116,9 @@ class ObservationBuilder:
             self._history_rows: list[np.ndarray] = list(self._history_odometry)
         self._picture_time: float | None = None
         self._interval = _frozen(np.zeros(1, np.float32))
-        self._between_rows = list(_frozen(np.zeros((n, 3), np.float32)))
+        self._between = _frozen(np.zeros((n, 3), np.float32))
+        self._between_rows = list(self._between)
+        self._odometry = _frozen(np.zeros((n, 3), np.float32))
         self._flags = {
             True: _frozen(np.ones(1, np.float32)),
             False: _frozen(np.zeros(1, np.float32)),
@@ -137,7 +140,8 @@ class ObservationBuilder:
         self._shared["mask"] = _frozen(mask)
         if self._picture_time is not None:
             self._interval = _frozen(np.array([picture.time - self._picture_time], np.float32))
-            self._between_rows = list(_frozen(odometry_between.astype(np.float32)))
+            self._between = _frozen(odometry_between.astype(np.float32))
+            self._between_rows = list(self._between)
         self._picture_time = picture.time
 
     def _push_history(self, time: float, odometry_between: np.ndarray) -> None:
@@ -178,11 +182,26 @@ class ObservationBuilder:
         bumped = bumper.nonzero()[0].tolist()  # usually few robots
         if bumped:
             set_each(map(obs.__getitem__, bumped), "bumper", repeat(self._flags[True]))
-        set_each(obs, "odometry", _frozen(odometry.astype(np.float32)))  # row views
+        self._odometry = _frozen(odometry.astype(np.float32))
+        set_each(obs, "odometry", self._odometry)  # row views
         set_each(obs, "odometry_between", self._between_rows)  # rows changed at pictures only
         if self.history > 0:
             set_each(obs, "history_odometry", self._history_rows)
         return dict(zip(agents, obs, strict=True))
+
+    def seen(self, new_picture: bool, bumper: np.ndarray) -> Step:
+        """What the robots observed in the observations :meth:`build` made last, as
+        :func:`anonloc_env.robot_view.read_step` reads it from them (the same bits, without
+        going through N dicts); ``new_picture`` and ``bumper`` as given to :meth:`build`."""
+        odometry = self._odometry.astype(np.float64)
+        if not new_picture:
+            return gather_step(False, odometry, bumper)
+        shared = self._shared
+        between = self._between.astype(np.float64)
+        interval = float(self._interval[0])
+        return gather_step(
+            True, odometry, bumper, shared["detections"], shared["mask"], between, interval
+        )
 
     def _template(self, flag: np.ndarray, since: np.ndarray) -> dict[str, np.ndarray]:
         """An observation of a robot whose bumper is off, with the shared arrays, and a

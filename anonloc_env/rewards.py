@@ -9,23 +9,30 @@ Built in:
 
 * :class:`InformationGain` (the default): at each new picture, how much more probable robot i's
   true row became (``log P_k(true_k) - log P_{k-1}(true_{k-1})``, in nats), under the Bayesian
-  identifier of :mod:`anonloc_env.identify` fed the true noise model; minus the energy cost at
-  every step. Over an episode the information terms add up to ``log P_K(true) - log P_0(true)``:
-  the log-probability gained on the truth since the first picture.
+  identifier of :mod:`anonloc_env.identify` fed the true noise model and what the robots observed;
+  minus the energy cost at every step. Over an episode the information terms add up to
+  ``log P_K(true) - log P_0(true)``: the log-probability gained on the truth since the first
+  picture. A ``bayes`` team built for the env reads this identifier instead of running its own
+  (``baselines.make_team("bayes", env)``).
 * :class:`EnergyCost`: ``r_i = -energy_weight * dt * (|v_i| + turn_cost * |w_i|)``, minus the
   weighted wheel travel of the step (cheap: no identifier runs).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
+from anonloc_env.robot_view import OdometryLog, Step, seen_rows
+
+if TYPE_CHECKING:
+    from anonloc_env.identify import Identifier
 
 
 @dataclass(frozen=True)
@@ -41,7 +48,9 @@ class StepContext:
             bumper fired).
         picture: the picture taken at the end of this step, or None.
         interval: each robot's own motion between the previous picture and ``picture`` (see
-            :class:`anonloc_env.odometry.Interval`), or None if no picture came before it.
+            :class:`anonloc_env.odometry.Interval`), or None if no picture came before it: the
+            env's own dead reckoning, in float64.
+        observed: builds :attr:`seen` (the env sets it; None: built without observations).
     """
 
     config: EnvConfig
@@ -51,6 +60,21 @@ class StepContext:
     contact: np.ndarray
     picture: Picture | None
     interval: Interval | None
+    observed: Callable[[], Step] | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def seen(self) -> Step:
+        """What the robots observed at this step, read back from the arrays of their
+        observations exactly as ``baselines`` policies read them
+        (:class:`anonloc_env.robot_view.Step`: float32 rows and odometry, in float64). Built
+        on each access.
+
+        Raises:
+            ValueError: the context was built without the robots' observations.
+        """
+        if self.observed is None:
+            raise ValueError("this StepContext was built without the robots' observations")
+        return self.observed()
 
 
 @runtime_checkable
@@ -149,7 +173,26 @@ class InformationGain:
     in the picture" if it was missed). The identifier runs for all N robots at every picture
     (tens of milliseconds per picture at N = 1000); use :class:`EnergyCost` where speed matters
     more than this reward.
+
+    The identifier is fed what the robots observed (:attr:`StepContext.seen`: the picture's rows
+    and each robot's odometry as float32, its motion log kept as a team keeps it), so it holds
+    the very belief that a ``bayes`` team of all the env's robots computes: such a team, built
+    for the env (``baselines.make_team("bayes", env)``), reads :attr:`identifier` instead of
+    running a second one.
+
+    Attributes:
+        identifier: the episode's :class:`~anonloc_env.identify.Identifier` (a new one at every
+            reset; None before the first).
+        pictures: pictures it has taken in this episode.
+        rows: ``(n, 3)`` the newest of them, as the robots observed it.
     """
+
+    needs_statistics = False  # reads the robots' own view, not the env's interval statistics
+
+    def __init__(self) -> None:
+        self.identifier: Identifier | None = None
+        self.pictures = 0
+        self.rows = np.zeros((0, 3))
 
     def reset(
         self, config: EnvConfig, rng: np.random.Generator, picture: Picture | None = None
@@ -159,12 +202,17 @@ class InformationGain:
 
         # The model is derived once per config (SensorModel.from_config caches it).
         self.identifier = Identifier(SensorModel.from_config(config), config.n_robots)
+        self.motion = OdometryLog(config.n_robots, config.robot.v_max, config.dt)
+        self.pictures = 0
         self.log_true: np.ndarray | None = None
         if picture is not None:
-            self.log_true = self._observe(picture, None)
+            self.log_true = self._observe(seen_rows(picture.detections), None, picture)
 
-    def _observe(self, picture: Picture, interval: Interval | None) -> np.ndarray:
-        self.identifier.update(picture.detections, interval)
+    def _observe(self, rows: np.ndarray, interval: Interval | None, picture: Picture) -> np.ndarray:
+        assert self.identifier is not None  # reset() came first
+        self.identifier.update(rows, interval if self.pictures else None)
+        self.pictures += 1
+        self.rows = rows
         prob = self.identifier.belief_at(picture.true_index)  # "missing" where not detected
         return np.log(np.maximum(prob, 1e-300))
 
@@ -172,8 +220,11 @@ class InformationGain:
         """Minus the weighted energy, plus the weighted information gain at a picture."""
         cfg = context.config.reward
         reward = -cfg.energy_weight * energy(context.config, context.v, context.w)
+        seen = context.seen
+        self.motion.command(context.v, context.w, np.abs(context.v))
+        interval = self.motion.observe(seen)
         if context.picture is not None:
-            log_true = self._observe(context.picture, context.interval)
+            log_true = self._observe(seen.rows, interval, context.picture)
             if self.log_true is not None:
                 reward = reward + cfg.information_weight * (log_true - self.log_true)
             self.log_true = log_true

@@ -150,10 +150,12 @@ def make_team(
             :data:`EXCITATIONS`, an ``Excitation``, or any policy object.
             Default: the method's own (``random`` for ``bayes``).
         **kwargs: passed to the localizer (``bayes`` and ``agent``: ``threshold``,
-            ``scale_known``); ``agent`` also takes ``path``, a saved agent (default: the agent
-            bundled with the package; a file is unpickled by SB3: load only files you trust),
-            and ``condition``, ``"free"`` or ``"swarm"`` (default: the one the agent's run
-            recorded, else ``free``).
+            ``scale_known``; ``bayes``: ``share``, default True: a team of all the env's robots
+            reads the identifier the env's default reward runs, see
+            :class:`~baselines.localizers.BayesLocalizer`); ``agent`` also takes ``path``, a
+            saved agent (default: the agent bundled with the package; a file is unpickled by
+            SB3: load only files you trust), and ``condition``, ``"free"`` or ``"swarm"``
+            (default: the one the agent's run recorded, else ``free``).
 
     Raises:
         ValueError: an unknown name, mode or excitation, or no scenario given (neither ``env``
@@ -172,6 +174,8 @@ def make_team(
         return registered_factory(name)(cfg, count, mode, excitation, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
+    if env is not None and not isinstance(env, (EnvConfig, str)):
+        localizer.attach(env)  # e.g. bayes reads the identifier the env's reward runs
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))
 
 
