@@ -24,6 +24,7 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
 
 from anonloc_cli.jobs import RunOptions  # a dataclass; jobs imports nothing heavy at the top
 from anonloc_cli.sweeps import DEFAULT_SEEDS, MAX_SEEDS, SWEEPS  # plain data, nothing heavy
+from baselines.catalog import excitation_names, policy_names  # the standard library alone
 
 app = typer.Typer(
     name="anonloc",
@@ -234,8 +235,8 @@ def bench(
     policy: Annotated[
         list[str],
         typer.Option(
-            help="A policy: angular, linear, motion, motion3, bayes, agent (the bundled learned "
-            "agent) (repeatable)."
+            help=f"A policy (repeatable): {', '.join(policy_names())}. 'agent' is the bundled "
+            "learned agent."
         ),
     ],
     seeds: Annotated[
@@ -249,8 +250,8 @@ def bench(
     excitation: Annotated[
         str | None,
         typer.Option(
-            help="Motion between pictures (default: the policy's own): still, angular, "
-            "linear, random, swarm, distinct, greedy."
+            help="Motion between pictures (default: the policy's own): "
+            f"{', '.join(excitation_names())}."
         ),
     ] = None,
     pictures: Pictures = None,
@@ -576,8 +577,8 @@ def evaluate(
     against: Annotated[
         list[str] | None,
         typer.Option(
-            help="Excitations to compare with, each run by the bayes policy (repeatable), "
-            "e.g. random."
+            help="Excitations to compare with, each run by the bayes policy (repeatable): "
+            f"{', '.join(excitation_names())}."
         ),
     ] = None,
     pictures: Pictures = None,

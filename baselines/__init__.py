@@ -15,15 +15,26 @@ other packages register (``agent``, from ``agents``): :mod:`baselines.registry`.
 
 from __future__ import annotations
 
-from baselines.policies import BaselinePolicy, Policy, Team
-from baselines.registry import (
-    POLICIES,
-    make,
-    make_team,
-    policy_names,
-    register_policy,
-    scenario_config,
-)
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+from baselines.catalog import policy_names, register_policy
+
+if TYPE_CHECKING:
+    from baselines.policies import BaselinePolicy, Policy, Team
+    from baselines.registry import POLICIES, make, make_team, scenario_config
+
+#: The package face, imported on first use (``import baselines`` stays cheap: listing the names
+#: needs only :mod:`baselines.catalog`).
+_LAZY = {
+    "POLICIES": "baselines.registry",
+    "BaselinePolicy": "baselines.policies",
+    "Policy": "baselines.policies",
+    "Team": "baselines.policies",
+    "make": "baselines.registry",
+    "make_team": "baselines.registry",
+    "scenario_config": "baselines.registry",
+}
 
 __all__ = [
     "POLICIES",
@@ -36,3 +47,22 @@ __all__ = [
     "register_policy",
     "scenario_config",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import the package face's names, and its submodules, on first use."""
+    if name in _LAZY:
+        value = getattr(import_module(_LAZY[name]), name)
+    else:
+        try:
+            value = import_module(f"baselines.{name}")
+        except ModuleNotFoundError as missing:
+            if missing.name != f"baselines.{name}":
+                raise
+            raise AttributeError(f"module 'baselines' has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

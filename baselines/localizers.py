@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from anonloc_env.camera import Camera
+from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
 from baselines import angular, linear, matching, motion
@@ -27,21 +27,6 @@ CHI2_THRESHOLD = {1: 15.14, 2: 18.42, 3: 21.11}
 #: Chi-square margin over every other row for a corrected decision: the chosen row must be at
 #: least 99 times as likely as the runner-up (2 ln 99).
 CHI2_MARGIN = 2.0 * math.log(99.0)
-
-
-def relative_scale_gradient(config: EnvConfig) -> float:
-    """Largest relative change of the camera's local scale per metre over the arena (1/m; 0 for
-    a camera looking straight down), from finite differences on a 9 x 9 grid."""
-    camera = Camera(config)
-    width, height = config.arena_size
-    grid = np.stack(
-        np.meshgrid(np.linspace(0, width, 9), np.linspace(0, height, 9)), axis=-1
-    ).reshape(-1, 2)
-    step = 1e-3 * max(width, height)
-    local = camera.local_scale(grid)
-    along_x = camera.local_scale(grid + np.array([step, 0.0])) - local
-    along_y = camera.local_scale(grid + np.array([0.0, step])) - local
-    return float(np.max(np.hypot(along_x, along_y) / (local * step)))
 
 
 def _commanded(interval: Interval, method: str) -> np.ndarray:
@@ -104,7 +89,7 @@ class Localizer:
         scale: image units per metre (the largest the camera may have).
         sigma: pixel noise of one coordinate of a detection (image units).
         scale_gradient: largest relative change of the camera's scale per metre of ground (1/m;
-            0 unless the camera is tilted): see :func:`relative_scale_gradient`.
+            0 unless the camera is tilted): ``anonloc_env.camera.survey(config).scale_gradient``.
         pictures: the last three pictures' rows, each ``(n_k, 3)`` ``(u, v, theta)`` in image
             units and radians (``theta`` is 0 without detected headings), newest last. Row order
             is random in every picture.
@@ -131,7 +116,7 @@ class Localizer:
         self.model = SensorModel.from_config(config)
         self.scale = self.model.scale_bounds[1]
         self.sigma = math.hypot(self.model.pixel_noise, 1e-3)
-        self.scale_gradient = relative_scale_gradient(config)
+        self.scale_gradient = survey(config).scale_gradient
         self.reset()
 
     def reset(self) -> None:

@@ -1,110 +1,60 @@
-"""One registry of the policies and the excitations: the names that :func:`make_team`,
-:func:`make` and :func:`make_excitation` build, and the scenario a policy is built for.
+"""One registry of the policies and the excitations: :func:`make_team`, :func:`make` and
+:func:`make_excitation` build them by name, for the scenario :func:`scenario_config` gives.
 
-The built-in policies are a localizer with the excitation its method prescribes
-(:data:`POLICIES`). Other packages add theirs without ``baselines`` importing them: a policy is
-registered under the entry-point group ``anonloc.policies`` (``name = "module:factory"`` in the
-package's ``pyproject.toml``; ``agents`` registers ``agent`` so), or at run time with
-:func:`register_policy`. A factory is called as ``factory(config, n, mode, excitation,
-**kwargs)`` and returns a :class:`~baselines.policies.Team`; it is imported only when its name is
-built.
+The names, and where each class is defined, are in :mod:`baselines.catalog` (which lists them
+without importing anything); this module loads the classes. The built-in policies are a
+localizer with the excitation its method prescribes (:data:`POLICIES`). Other packages add
+theirs without ``baselines`` importing them: under the entry-point group ``anonloc.policies``
+(``agents`` registers ``agent`` so), or at run time with :func:`register_policy`.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from importlib import metadata
 from typing import Any
 
 import anonloc_env
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
-from baselines.active import GreedyIdentification
-from baselines.excitations import (
-    Angular,
-    DistinctMotion,
-    Excitation,
-    Linear,
-    RandomMotion,
-    Still,
-    SwarmMotion,
+from baselines.catalog import (
+    BUILT_IN_EXCITATIONS,
+    BUILT_IN_POLICIES,
+    ENTRY_POINTS,
+    RENAMED,
+    excitation_names,
+    policy_names,
+    register_policy,
+    registered_factory,
 )
-from baselines.localizers import (
-    AngularLocalizer,
-    BayesLocalizer,
-    LinearLocalizer,
-    Localizer,
-    Motion3Localizer,
-    MotionLocalizer,
-)
+from baselines.excitations import Excitation
+from baselines.localizers import Localizer
 from baselines.policies import BaselinePolicy, Policy, PolicyExcitation, Team
 
-#: name -> (localizer class, name of the excitation its method prescribes)
+__all__ = [
+    "EXCITATIONS",
+    "POLICIES",
+    "RENAMED",
+    "excitation_names",
+    "make",
+    "make_excitation",
+    "make_team",
+    "policy_names",
+    "register_policy",
+    "scenario_config",
+]
+
+#: name -> (localizer class, name of the excitation its method prescribes), loaded from
+#: :data:`baselines.catalog.BUILT_IN_POLICIES`.
 POLICIES: dict[str, tuple[type[Localizer], str]] = {
-    "angular": (AngularLocalizer, "angular"),
-    "linear": (LinearLocalizer, "linear"),
-    "motion": (MotionLocalizer, "random"),
-    "motion3": (Motion3Localizer, "random"),
-    "bayes": (BayesLocalizer, "random"),
+    name: (entry.load(), entry.excitation) for name, entry in BUILT_IN_POLICIES.items()
 }
 
+#: Excitations by name (each value builds one), loaded from
+#: :data:`baselines.catalog.BUILT_IN_EXCITATIONS` (which says what each name is).
 EXCITATIONS: dict[str, Callable[[], Excitation]] = {
-    "still": Still,
-    "angular": Angular,
-    "linear": Linear,
-    "random": RandomMotion,
-    "swarm": SwarmMotion,
-    "distinct": DistinctMotion,
-    "greedy": GreedyIdentification,
+    name: entry.load() for name, entry in BUILT_IN_EXCITATIONS.items()
 }
-"""Excitations by name (each value builds one). ``random`` is the paper's random motion
-(:class:`~baselines.excitations.RandomMotion`, the excitation of the ``motion`` localizer);
-``swarm`` is :class:`~baselines.excitations.SwarmMotion` with its defaults (jitter
-``SWARM_JITTER``, common seed 0); ``distinct`` is :class:`~baselines.excitations.DistinctMotion`;
-``greedy`` is :class:`baselines.active.GreedyIdentification`."""
-
-RENAMED = {"motion": "random"}
-"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
-``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
-
-#: The entry-point group other packages register policies under.
-ENTRY_POINTS = "anonloc.policies"
-
-#: ``factory(config, n, mode, excitation, **kwargs) -> Team``.
-PolicyFactory = Callable[..., Team]
-
-_registered: dict[str, PolicyFactory] = {}
-
-
-def register_policy(name: str, factory: PolicyFactory) -> None:
-    """Make ``name`` a policy built by ``factory`` (see the module documentation).
-
-    Raises:
-        ValueError: ``name`` is a built-in policy's.
-    """
-    if name in POLICIES:
-        raise ValueError(f"{name!r} is a built-in policy; valid new names are any others")
-    _registered[name] = factory
-
-
-def _entry_points() -> dict[str, metadata.EntryPoint]:
-    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINTS)}
-
-
-def policy_names() -> list[str]:
-    """The valid policy names: the built-in ones, then those registered (entry points and
-    :func:`register_policy`). Nothing is imported to list them."""
-    names = [*POLICIES]
-    for name in [*_entry_points(), *_registered]:
-        if name not in names:
-            names.append(name)
-    return names
-
-
-def excitation_names() -> list[str]:
-    """The valid excitation names (:data:`EXCITATIONS`)."""
-    return list(EXCITATIONS)
 
 
 def make_excitation(name: str) -> Excitation:
@@ -126,21 +76,6 @@ def make_excitation(name: str) -> Excitation:
             f"valid: {list(EXCITATIONS)}"
         )
     return EXCITATIONS[name]()
-
-
-def _factory(name: str) -> PolicyFactory:
-    """The registered factory of ``name`` (an entry point is imported now)."""
-    if name in _registered:
-        return _registered[name]
-    entry = _entry_points()[name]
-    try:
-        factory: PolicyFactory = entry.load()
-    except ImportError as error:
-        raise ImportError(
-            f"policy {name!r} comes from {entry.value!r}, which could not be imported ({error}); "
-            "for 'agent': pip install 'anonloc[rl]'"
-        ) from error
-    return factory
 
 
 def scenario_config(env: Any = None, config: EnvConfig | str | None = None) -> EnvConfig:
@@ -234,7 +169,7 @@ def make_team(
     cfg = scenario_config(env, config)
     count = cfg.n_robots if n is None else n
     if name not in POLICIES:
-        return _factory(name)(cfg, count, mode, excitation, **kwargs)
+        return registered_factory(name)(cfg, count, mode, excitation, **kwargs)
     localizer_class, own = POLICIES[name]
     localizer = localizer_class(cfg, count, mode, **kwargs)
     return Team(cfg, localizer, _excitation(own if excitation is None else excitation, cfg))

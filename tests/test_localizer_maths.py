@@ -10,12 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import anonloc_env
-from anonloc_env.camera import Camera
+from anonloc_env.camera import Camera, survey
 from anonloc_env.geometry import rotate
 from anonloc_env.identify import SensorModel, log_i0e, ring_loglik
 from anonloc_env.neighbours import pairs_within, pairs_within_each
 from baselines import angular, linear, motion
-from baselines.localizers import CHI2_THRESHOLD, relative_scale_gradient
+from baselines.localizers import CHI2_THRESHOLD
 from baselines.matching import decide, match_nearest, scores_to_belief
 
 
@@ -292,7 +292,7 @@ def test_tilted_camera_scale_change_keeps_straight_drives_in_the_linear_gate() -
     gate with it; without it most fail."""
     config = anonloc_env.make_config("paper-linear", camera={"pixel_noise": 0.005})
     camera = Camera(config)
-    gradient = relative_scale_gradient(config)
+    gradient = survey(config).scale_gradient
     assert 0.005 < gradient < 0.02
     rng = np.random.default_rng(3)
     width, height = config.arena_size

@@ -13,7 +13,7 @@ import pytest
 import anonloc_env
 import baselines
 from anonloc_env.odometry import Interval
-from baselines import registry
+from baselines import catalog
 from baselines.excitations import Excitation
 from baselines.localizers import AngularLocalizer, BayesLocalizer
 from baselines.policies import Team
@@ -97,7 +97,7 @@ def test_the_faithful_angular_method_reads_the_commanded_rate_from_the_interval(
 
 
 def test_a_registered_policy_is_built_by_its_factory(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(registry, "_registered", {})
+    monkeypatch.setattr(catalog, "_registered", {})
     calls = []
 
     def factory(config, n, mode, excitation, **kwargs):  # type: ignore[no-untyped-def]

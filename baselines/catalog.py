@@ -1,0 +1,128 @@
+"""The names of the policies and the excitations, and where each one is defined.
+
+Everything that lists names reads this module (:func:`policy_names`, :func:`excitation_names`,
+the command line's help texts): it imports nothing but the standard library, so listing costs
+no numpy, no physics and no plug-in. :mod:`baselines.registry` loads the classes named here when
+it builds them.
+
+Other packages add policies without ``baselines`` importing them: under the entry-point group
+:data:`ENTRY_POINTS` (``name = "module:factory"`` in the package's ``pyproject.toml``; ``agents``
+registers ``agent`` so), or at run time with :func:`register_policy`. A factory is called as
+``factory(config, n, mode, excitation, **kwargs)`` and returns a
+:class:`~baselines.policies.Team`; it is imported only when its name is built.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import import_module, metadata
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from baselines.policies import Team
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A built-in name.
+
+    Attributes:
+        target: ``"module:attribute"``, where the class is defined.
+        excitation: for a policy, the name of the excitation its method prescribes (empty for an
+            excitation).
+    """
+
+    target: str
+    excitation: str = ""
+
+    def load(self) -> Any:
+        """The class ``target`` names (its module is imported now)."""
+        module, _, attribute = self.target.partition(":")
+        return getattr(import_module(module), attribute)
+
+
+#: The built-in policies: a localizer and the excitation its method prescribes.
+BUILT_IN_POLICIES: dict[str, Entry] = {
+    "angular": Entry("baselines.localizers:AngularLocalizer", "angular"),
+    "linear": Entry("baselines.localizers:LinearLocalizer", "linear"),
+    "motion": Entry("baselines.localizers:MotionLocalizer", "random"),
+    "motion3": Entry("baselines.localizers:Motion3Localizer", "random"),
+    "bayes": Entry("baselines.localizers:BayesLocalizer", "random"),
+}
+
+BUILT_IN_EXCITATIONS: dict[str, Entry] = {
+    "still": Entry("baselines.excitations:Still"),
+    "angular": Entry("baselines.excitations:Angular"),
+    "linear": Entry("baselines.excitations:Linear"),
+    "random": Entry("baselines.excitations:RandomMotion"),
+    "swarm": Entry("baselines.excitations:SwarmMotion"),
+    "distinct": Entry("baselines.excitations:DistinctMotion"),
+    "greedy": Entry("baselines.active:GreedyIdentification"),
+}
+"""The excitations by name. ``random`` is the paper's random motion (the excitation of the
+``motion`` localizer); ``swarm`` is ``SwarmMotion`` with its defaults (jitter ``SWARM_JITTER``,
+common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
+``baselines.active.GreedyIdentification``."""
+
+RENAMED = {"motion": "random"}
+"""Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
+``motion`` named both a localizer and this excitation; the excitation is now only ``random``."""
+
+#: The entry-point group other packages register policies under.
+ENTRY_POINTS = "anonloc.policies"
+
+#: ``factory(config, n, mode, excitation, **kwargs) -> Team``.
+PolicyFactory = Callable[..., "Team"]
+
+_registered: dict[str, PolicyFactory] = {}
+
+
+def register_policy(name: str, factory: PolicyFactory) -> None:
+    """Make ``name`` a policy built by ``factory`` (see the module documentation).
+
+    Raises:
+        ValueError: ``name`` is a built-in policy's.
+    """
+    if name in BUILT_IN_POLICIES:
+        raise ValueError(f"{name!r} is a built-in policy; valid new names are any others")
+    _registered[name] = factory
+
+
+def _entry_points() -> dict[str, metadata.EntryPoint]:
+    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINTS)}
+
+
+def policy_names() -> list[str]:
+    """The valid policy names: the built-in ones, then those registered (entry points and
+    :func:`register_policy`). Nothing is imported to list them."""
+    names = [*BUILT_IN_POLICIES]
+    for name in [*_entry_points(), *_registered]:
+        if name not in names:
+            names.append(name)
+    return names
+
+
+def excitation_names() -> list[str]:
+    """The valid excitation names (:data:`BUILT_IN_EXCITATIONS`)."""
+    return list(BUILT_IN_EXCITATIONS)
+
+
+def registered_factory(name: str) -> PolicyFactory:
+    """The factory registered for ``name`` (an entry point's module is imported now).
+
+    Raises:
+        KeyError: ``name`` is not registered.
+        ImportError: the entry point's module could not be imported (the message says which).
+    """
+    if name in _registered:
+        return _registered[name]
+    entry = _entry_points()[name]
+    try:
+        factory: PolicyFactory = entry.load()
+    except ImportError as error:
+        raise ImportError(
+            f"policy {name!r} comes from {entry.value!r}, which could not be imported ({error}); "
+            "for 'agent': pip install 'anonloc[rl]'"
+        ) from error
+    return factory
