@@ -1,7 +1,8 @@
 """``anonloc bench``: policies x scenarios x seeds, one row per robot and episode.
 
-Each unit plays one episode: ``env = anonloc_env.parallel_env(**scenario)``, a team of all its
-robots running the policy, ``baselines.runner.run_episode(env, team, seed, max_pictures=K)``.
+Each unit plays one episode: ``env = anonloc_env.parallel_env(**scenario,
+reward_fn=EnergyCost())`` (rewards are never read), a team of all its robots running the policy,
+``baselines.runner.run_episode(env, team, seed, max_pictures=K)``.
 
 Columns of the output (CSV, or Parquet when the path ends in ``.parquet``):
 

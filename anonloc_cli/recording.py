@@ -89,7 +89,7 @@ def play(
     from anonloc_cli.teams import build_team
 
     env = anonloc_env.parallel_env(**scenario.spec, render_mode="human" if human else "rgb_array")
-    team = build_team(policy, env.config, seed=seed)
+    team = build_team(policy, env, seed=seed)  # bayes reads the identifier of the env's reward
     agents = env.possible_agents
     try:
         observations, _ = env.reset(seed=seed)

@@ -74,18 +74,19 @@ def excitation(spec: Any, seed: int) -> Any:
 
 def build_team(
     policy: str,
-    config: EnvConfig,
+    scenario: Any,
     *,
     mode: str = "corrected",
     excitation_spec: Any = None,
     seed: int = 0,
     **kwargs: Any,
 ) -> Any:
-    """A team of all the config's robots running ``policy`` (see :func:`baselines.make_team`).
+    """A team of all the scenario's robots running ``policy`` (see :func:`baselines.make_team`).
 
     Args:
         policy: a name from :func:`policy_names`.
-        config: the scenario.
+        scenario: the env the team will run in (a ``bayes`` team then reads the identifier of
+            its default reward), or its ``EnvConfig``.
         mode: ``corrected`` or ``faithful``.
         excitation_spec: None (the policy's own), a name, or ``{"swarm": jitter}``.
         seed: the episode seed (the swarm's shared commands are drawn from it).
@@ -94,7 +95,7 @@ def build_team(
     import baselines
 
     return baselines.make_team(
-        policy, config, mode=mode, excitation=excitation(excitation_spec, seed), **kwargs
+        policy, scenario, mode=mode, excitation=excitation(excitation_spec, seed), **kwargs
     )
 
 
@@ -119,7 +120,9 @@ def play(unit: Any) -> Any:
     from baselines.runner import run_episode
 
     p = unit.params
-    env = anonloc_env.parallel_env(**unit.scenario)
+    # The commands read pictures and energy, never rewards: the cheapest reward (the default one
+    # would run an identifier for nothing, beside any team's own).
+    env = anonloc_env.parallel_env(**unit.scenario, reward_fn=anonloc_env.EnergyCost())
     team = build_team(
         unit.policy,
         env.config,
