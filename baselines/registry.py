@@ -198,7 +198,11 @@ def make(
     ValueError: a policy needs the scenario it will run in, ...: pass env=<the env> (or config=...)
     """
 
+    # Built for the scenario, not the env: a one-robot policy may serve any env of the scenario
+    # (a batch of them from a VecEnv), so it never reads one env's reward identifier.
+    scenario = scenario_config(env, config)
+
     def build() -> Team:
-        return make_team(name, env, 1, config=config, mode=mode, excitation=excitation, **kwargs)
+        return make_team(name, scenario, 1, mode=mode, excitation=excitation, **kwargs)
 
     return BaselinePolicy(name, build, build())

@@ -165,3 +165,15 @@ def test_the_reward_reads_what_the_robots_observed() -> None:
         _ = StepContext(
             env.config, 0.0, np.zeros(6), np.zeros(6), np.zeros(6, bool), None, None
         ).seen
+
+
+def test_a_one_robot_policy_never_shares_and_serves_a_batch_of_envs() -> None:
+    """``baselines.make`` (SB3-style, one robot) may run in any env of its scenario, a VecEnv's
+    batch included, so even in a one-robot env it keeps an identifier of its own."""
+    envs = [anonloc_env.parallel_env(n_robots=1) for _ in range(2)]
+    policy = baselines.make("bayes", envs[0])
+    observations = [env.reset(seed=i)[0]["robot_0"] for i, env in enumerate(envs)]
+    batch = {key: np.stack([o[key] for o in observations]) for key in observations[0]}
+    actions, _ = policy.predict(batch)
+    assert actions.shape == (2, 2)
+
