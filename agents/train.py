@@ -14,32 +14,26 @@ into place; Ctrl-C (``KeyboardInterrupt``) or SIGTERM saves a checkpoint and ``a
 steps done so far before :class:`Interrupted` is raised; :func:`resume` skips a damaged newest
 checkpoint for the previous good one (and says so), keeps ``tb/progress.csv``'s earlier rows, and
 trains up to the run's recorded total ``timesteps`` (or a new total the caller gives). A run
-folder is locked while it trains: a second process on it is refused.
+folder is locked while it trains: a second process on it is refused (:mod:`agents.run_folder`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import json
-import os
 import re
-import signal
-import threading
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
 from agents.crew import CONDITIONS, REWARDS
+from agents.run_folder import RunLock, interrupt_on_sigterm, read_config, write_config
 from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
-from anonloc_env.presets import config_to_dict, make_config
+from anonloc_env.presets import make_config
 
 #: ``condition`` values: one scenario on free motion or swarm duty, or scenarios drawn across
 #: conditions (:mod:`agents.conditions`) for a general agent.
@@ -267,8 +261,8 @@ def train(config: TrainConfig) -> TrainResult:
             f"run folder {directory} exists: choose another name, or continue it with resume"
         )
     directory.mkdir(parents=True)
-    with _RunLock(directory):
-        _write_json(directory / "config.json", _config_record(config))
+    with RunLock(directory):
+        write_config(directory, config.to_json(), config.env_config())
         return _learn(config, directory, None)
 
 
@@ -313,9 +307,10 @@ def resume(
     Raises:
         FileNotFoundError: no run there, or only damaged checkpoints.
         ValueError: a bad new budget, or a config.json that is not a run's.
+        agents.run_folder.RunBusyError: another process trains this run.
     """
     directory = Path(directory)
-    recorded = _read_config(directory)
+    recorded = read_config(directory)
     if timesteps is not None:
         recorded["timesteps"] = timesteps
     if minutes is not None:
@@ -327,7 +322,7 @@ def resume(
     except TypeError as error:
         raise ValueError(f"{directory / 'config.json'} is not a run's config: {error}") from None
     say = notify if notify is not None else _warn
-    with _RunLock(directory):
+    with RunLock(directory):
         if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
             # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
             # the run starts again from step 0 rather than being a dead end.
@@ -388,7 +383,7 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
             )
             callbacks.append(evaluation)
         try:
-            with _interrupt_on_sigterm():
+            with interrupt_on_sigterm():
                 model.learn(
                     total_timesteps=max(config.timesteps - already, 0),
                     callback=CallbackList(callbacks),
@@ -426,83 +421,3 @@ def start_from_greedy(model: Any, vec_env: Any, config: TrainConfig) -> list[flo
         last.bias /= config.temperature
     vec_env.seed(config.seed)  # PPO's own episodes start from the run's seed again
     return agreement
-
-
-@contextlib.contextmanager
-def _interrupt_on_sigterm() -> Iterator[None]:
-    """SIGTERM (a scheduler ending the job, ``kill``) stops training as Ctrl-C does."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def stop(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, stop)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-class _RunLock:
-    """An exclusive lock on a run folder (``.lock``): two processes never train one run."""
-
-    def __init__(self, directory: Path) -> None:
-        self.path = directory / ".lock"
-        self._fd: int | None = None
-
-    def __enter__(self) -> _RunLock:
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            import fcntl
-
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except ImportError:  # pragma: no cover - Windows: no advisory locks
-            pass
-        except BlockingIOError:
-            os.close(fd)
-            raise RunBusyError(
-                f"run folder {self.path.parent} is being trained by another process; "
-                "wait for it to finish"
-            ) from None
-        self._fd = fd
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
-
-
-class RunBusyError(RuntimeError):
-    """Another process trains the same run folder."""
-
-
-def _config_record(config: TrainConfig) -> dict[str, Any]:
-    record = json.loads(json.dumps(config.to_json(), default=_jsonable))
-    return {"train": record, "env": config_to_dict(config.env_config())}
-
-
-def _read_config(directory: Path) -> dict[str, Any]:
-    path = directory / "config.json"
-    if not path.exists():
-        raise FileNotFoundError(f"{path} not found: nothing to resume")
-    try:
-        return dict(json.loads(path.read_text())["train"])
-    except (ValueError, KeyError, TypeError) as error:
-        raise ValueError(
-            f"{path} is not a run's config ({type(error).__name__}: {error})"
-        ) from None
-
-
-def _write_json(path: Path, data: Any) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_jsonable))
-    tmp.replace(path)
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON: {value!r}")

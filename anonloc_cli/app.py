@@ -6,11 +6,7 @@ imports what it needs when it runs.
 
 from __future__ import annotations
 
-import contextlib
-import errno
 import sys
-from collections.abc import Iterator
-from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
 
@@ -22,7 +18,25 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
     sys.stderr.write("anonloc: the command line needs its extra: pip install 'anonloc[cli]'\n")
     raise SystemExit(1) from None
 
-from anonloc_cli.jobs import RunOptions  # a dataclass; jobs imports nothing heavy at the top
+from anonloc_cli.failures import failures_reported  # Typer alone at the top
+from anonloc_cli.options import (  # Typer's aliases and their checks, nothing heavy
+    SHOW_SETS,
+    Address,
+    Backend,
+    BackendOption,
+    EpisodeSeed,
+    OutFolder,
+    OutTable,
+    Pictures,
+    Quiet,
+    Sets,
+    ShownPolicy,
+    ShownScenario,
+    Verbose,
+    Workers,
+    check_out,
+    run_options,
+)
 from anonloc_cli.sweeps import DEFAULT_SEEDS, MAX_SEEDS, SWEEPS  # plain data, nothing heavy
 from baselines.catalog import excitation_names, policy_names  # the standard library alone
 
@@ -43,51 +57,6 @@ app = typer.Typer(
 EVAL_SEEDS = 20
 
 
-class Backend(str, Enum):
-    """Where the work units run."""
-
-    process = "process"
-    ray = "ray"
-
-
-Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
-Verbose = Annotated[
-    int,
-    typer.Option(
-        "--verbose", "-v", count=True, help="Log to stderr as JSON lines (-v info, -vv debug)."
-    ),
-]
-BackendOption = Annotated[
-    Backend,
-    typer.Option(
-        help="process: a local process pool; ray: Ray tasks (pip install 'anonloc[ray]')."
-    ),
-]
-Address = Annotated[
-    str | None,
-    typer.Option(
-        help="With --backend ray: the cluster to join (e.g. ray://host:10001 or auto); "
-        "default: start a local Ray instance."
-    ),
-]
-Workers = Annotated[
-    int | None,
-    typer.Option(min=1, help="Parallel workers (default: one per core)."),
-]
-Pictures = Annotated[
-    int | None,
-    typer.Option(min=1, help="Stop each episode after K pictures (default: run it to its end)."),
-]
-Sets = Annotated[
-    list[str] | None,
-    typer.Option(
-        "--set",
-        help="Override a config value in every scenario: key=value, e.g. n_robots=10 or "
-        "camera.pixel_noise=1.5 (repeatable).",
-    ),
-]
-
-
 def _version(value: bool) -> None:
     if value:
         import anonloc_env
@@ -106,101 +75,13 @@ def _root(
     """Self-localization of anonymous robots from aerial images."""
 
 
-#: Errors of a disk that cannot take more (full, over quota, read-only): a message, not a trace.
-_DISK_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS)
-
-
-@contextlib.contextmanager
-def _command(verbose: int) -> Iterator[None]:
-    """Set up logging; turn the expected failures into a message and an exit status."""
-    from anonloc_cli.console import setup_logging
-
-    setup_logging(verbose)
-    from anonloc_cli.jobs import BackendError, UnitError
-    from anonloc_cli.scenarios import InputError
-    from anonloc_cli.store import StoreBusyError
-
-    try:
-        yield
-    except (InputError, BackendError) as error:
-        typer.echo(f"Error: {error}", err=True)
-        raise typer.Exit(2) from None
-    except (StoreBusyError, UnitError) as error:
-        typer.echo(f"Error: {error}", err=True)
-        raise typer.Exit(1) from None
-    except KeyboardInterrupt:
-        typer.echo(
-            "\nInterrupted. Every finished unit is saved; run the same command again to resume.",
-            err=True,
-        )
-        raise typer.Exit(130) from None
-    except OSError as error:
-        if error.errno not in _DISK_ERRORS:
-            raise
-        where = f" {error.filename}" if error.filename else ""
-        typer.echo(
-            f"Error: cannot write{where}: {error.strerror}. What was finished before is kept "
-            "(stored units, checkpoints); make room and run the same command again (train: "
-            "--resume).",
-            err=True,
-        )
-        raise typer.Exit(1) from None
-
-
-def _run_options(
-    backend: Backend, address: str | None, workers: int | None, quiet: bool
-) -> RunOptions:
-    """The shared run options, checked before any work: a wrong backend must not leave an empty
-    store behind."""
-    import importlib.util
-
-    from anonloc_cli.scenarios import InputError
-
-    if address is not None and backend is not Backend.ray:
-        raise InputError("--address only applies to --backend ray")
-    if backend is Backend.ray and importlib.util.find_spec("ray") is None:
-        raise InputError("--backend ray needs Ray: pip install 'anonloc[ray]'")
-    return RunOptions(backend=backend.value, address=address, workers=workers, quiet=quiet)
-
-
-def _check_out(out: Path, *, folder: bool) -> None:
-    """Refuse an --out that cannot be written before any work is done."""
-    import tempfile
-
-    from anonloc_cli.scenarios import InputError
-
-    if folder:
-        if out.exists() and not out.is_dir():
-            raise InputError(f"--out {out} is a file; give a folder")
-        parent = out
-        while not parent.exists():  # the folder is made later: check its first existing parent
-            parent = parent.parent
-    else:
-        suffix = out.suffix.lower()
-        if suffix in (".md", ".json", ".jsonl"):
-            raise InputError(
-                f"--out {out}: {suffix} files are written beside the output (summary, metadata, "
-                "store); give a .csv or .parquet file"
-            )
-        if out.is_dir():
-            raise InputError(f"--out {out} is a folder; give a file such as {out / 'bench.csv'}")
-        parent = out.parent
-    if not parent.is_dir():
-        raise InputError(f"--out {out}: {parent} is not a folder")
-    try:
-        with tempfile.TemporaryFile(dir=parent):
-            pass
-    except OSError as error:
-        raise InputError(f"--out {out}: cannot write in {parent} ({error.strerror})") from None
-
-
 @app.command()
 def reproduce(
     runs: Annotated[
         int | None,
         typer.Option(min=1, help="Runs of each experiment (default: the paper's 65, 100 and 118)."),
     ] = None,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("results"),
+    out: OutFolder = Path("results"),
     backend: BackendOption = Backend.process,
     address: Address = None,
     workers: Workers = None,
@@ -212,9 +93,9 @@ def reproduce(
     Writes OUT/reproduce.md (the table, versions, command), OUT/reproduce.csv (one row per run
     and robot) and the resumable store OUT/reproduce.jsonl: run it again to resume.
     """
-    with _command(verbose):
-        run = _run_options(backend, address, workers, quiet)
-        _check_out(out, folder=True)
+    with failures_reported(verbose):
+        run = run_options(backend, address, workers, quiet)
+        check_out(out, folder=True)
         from anonloc_cli import reproduce as command
         from baselines.paper import EXPERIMENTS
 
@@ -243,7 +124,7 @@ def bench(
         int,
         typer.Option(min=1, max=MAX_SEEDS, help="Episodes per policy and scenario (seeds 0..N-1)."),
     ],
-    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")],
+    out: OutTable,
     mode: Annotated[
         str, typer.Option(help="The paper's methods corrected, or faithful (as printed).")
     ] = "corrected",
@@ -267,9 +148,9 @@ def bench(
     Writes OUT (CSV or Parquet), OUT's .md (summary and provenance), .meta.json, and the resumable
     store OUT's .units.jsonl: run it again to resume.
     """
-    with _command(verbose):
-        run = _run_options(backend, address, workers, quiet)
-        _check_out(out, folder=False)
+    with failures_reported(verbose):
+        run = run_options(backend, address, workers, quiet)
+        check_out(out, folder=False)
         from anonloc_cli import bench as command
         from anonloc_cli import scenarios, teams
 
@@ -301,7 +182,7 @@ def study(
         list[str] | None,
         typer.Option(help=f"A sweep (repeatable; default: all): {', '.join(SWEEPS)}."),
     ] = None,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("results/study"),
+    out: OutFolder = Path("results/study"),
     seeds: Annotated[
         int | None,
         typer.Option(
@@ -323,9 +204,9 @@ def study(
     Writes OUT/NAME.png, .svg (95 % confidence bands), .csv and .meta.json per sweep, and the
     resumable store OUT/study.jsonl: run it again to resume (or with more --seeds to add episodes).
     """
-    with _command(verbose):
-        run = _run_options(backend, address, workers, quiet)
-        _check_out(out, folder=True)
+    with failures_reported(verbose):
+        run = run_options(backend, address, workers, quiet)
+        check_out(out, folder=True)
         from anonloc_cli import study as command
 
         command.check_sweeps(sweep or [])
@@ -338,18 +219,8 @@ def study(
     raise typer.Exit(status)
 
 
-#: What ``render`` and ``frame`` show without --scenario: the default preset with enough robots
-#: that the first pictures leave some of them wrong (with its 4, every guess is right from the
-#: second picture on, and a newcomer never sees the problem).
-SHOW_SETS = ("n_robots=12",)
-SHOW_SCENARIO_HELP = (
-    "A preset or a TOML/YAML scenario file (default: the default preset with 12 robots, so "
-    "that the first pictures show wrong guesses)."
-)
-
-
 def _shown(scenario: str | None, sets: list[str]) -> Any:
-    """The scenario ``render``/``frame`` play (see :data:`SHOW_SETS`)."""
+    """The scenario ``render``/``frame`` play (see :data:`anonloc_cli.options.SHOW_SETS`)."""
     from anonloc_cli import scenarios
 
     if scenario is None:
@@ -362,9 +233,9 @@ def render(
     out: Annotated[
         Path | None, typer.Option(help="A .gif (or .mp4 with an ffmpeg plugin).")
     ] = None,
-    scenario: Annotated[str | None, typer.Option(help=SHOW_SCENARIO_HELP)] = None,
-    policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
-    seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
+    scenario: ShownScenario = None,
+    policy: ShownPolicy = "bayes",
+    seed: EpisodeSeed = 0,
     steps: Annotated[int, typer.Option(min=1, help="Control steps to play.")] = 200,
     fps: Annotated[
         float, typer.Option(min=0.1, help="Frames per second of simulated time.")
@@ -380,7 +251,7 @@ def render(
 
     Needs pygame-ce (in the cli extra); --human needs a display.
     """
-    with _command(verbose):
+    with failures_reported(verbose):
         from anonloc_cli import recording as command
         from anonloc_cli import teams
 
@@ -423,7 +294,7 @@ def detect(
 
     Needs the images extra (OpenCV): pip install 'anonloc[images]'.
     """
-    with _command(verbose):
+    with failures_reported(verbose):
         from anonloc_cli import detect as command
         from anonloc_cli import scenarios
 
@@ -436,9 +307,9 @@ def detect(
 @app.command()
 def frame(
     out: Annotated[Path, typer.Option(help="The PNG to write.")],
-    scenario: Annotated[str | None, typer.Option(help=SHOW_SCENARIO_HELP)] = None,
-    policy: Annotated[str, typer.Option(help="The policy every robot runs.")] = "bayes",
-    seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
+    scenario: ShownScenario = None,
+    policy: ShownPolicy = "bayes",
+    seed: EpisodeSeed = 0,
     steps: Annotated[
         int,
         typer.Option(
@@ -458,7 +329,7 @@ def frame(
 
     Needs pygame-ce (in the cli extra).
     """
-    with _command(verbose):
+    with failures_reported(verbose):
         from anonloc_cli import recording as command
         from anonloc_cli import teams
 
@@ -531,7 +402,7 @@ def train(
     SIGTERM saves a checkpoint and agent.zip first; continue with --resume. Needs the rl
     extra: pip install torch==2.13.0 && pip install 'anonloc[rl]'.
     """
-    with _command(verbose):
+    with failures_reported(verbose):
         from anonloc_cli import learning
 
         status = learning.train(
@@ -567,9 +438,7 @@ def evaluate(
             min=1, max=MAX_SEEDS, help="Episodes (seeds 0..N-1; training never uses them)."
         ),
     ] = EVAL_SEEDS,
-    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")] = Path(
-        "eval.csv"
-    ),
+    out: OutTable = Path("eval.csv"),
     scenario: Annotated[
         str | None,
         typer.Option(help="A preset or scenario file (default: the agent's own, as trained)."),
@@ -594,9 +463,9 @@ def evaluate(
 
     Loading an agent unpickles parts of its file (SB3): only load files you trust.
     """
-    with _command(verbose):
-        run = _run_options(backend, address, workers, quiet)
-        _check_out(out, folder=False)
+    with failures_reported(verbose):
+        run = run_options(backend, address, workers, quiet)
+        check_out(out, folder=False)
         from anonloc_cli import learning
 
         status = learning.evaluate(

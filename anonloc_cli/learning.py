@@ -57,6 +57,8 @@ def train(
     """Train (or resume) a run; the exit status (130 when Ctrl-C or SIGTERM stopped it, after
     saving a checkpoint and the agent)."""
     module = _rl_modules()
+    from agents.run_folder import RunBusyError
+
     try:
         if resume is not None:
             result = module.resume(
@@ -91,7 +93,7 @@ def train(
             err=True,
         )
         return 130
-    except (FileNotFoundError, FileExistsError, ValueError, module.RunBusyError) as error:
+    except (FileNotFoundError, FileExistsError, ValueError, RunBusyError) as error:
         raise InputError(str(error)) from None
     echo(
         f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "

@@ -264,7 +264,8 @@ def test_the_readme_table_uses_the_labels_reproduce_prints() -> None:
 
 def test_the_default_frame_shows_a_wrong_guess(tmp_path: Path) -> None:
     pytest.importorskip("pygame")
-    from anonloc_cli.app import SHOW_SETS, _shown
+    from anonloc_cli.app import _shown
+    from anonloc_cli.options import SHOW_SETS
 
     scenario = _shown(None, [])
     assert scenario.config.n_robots == 12

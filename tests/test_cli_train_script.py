@@ -157,11 +157,11 @@ def test_a_run_killed_before_its_first_checkpoint_resumes_from_step_0(tmp_path: 
 
 
 def test_a_second_train_on_a_run_being_trained_is_refused(tmp_path: Path) -> None:
-    from agents.train import _RunLock
+    from agents.run_folder import RunLock
 
     run = tmp_path / "r"
     train_tiny(tmp_path, "r", ROLLOUT)
-    with _RunLock(run):  # another process training it
+    with RunLock(run):  # another process training it
         second = run_script("train", "--resume", run, "--timesteps", 2 * ROLLOUT, "--quiet")
     assert second.returncode == 2
     assert "is being trained by another process" in second.stderr
