@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from agents.checkpoints import save_atomic
 from anonloc_env._checks import check_number
 from anonloc_env.config import EnvConfig
 
@@ -419,10 +420,7 @@ def export_agent(source: Any, path: str | Path) -> Path:
         policy = model.policy
         assert isinstance(policy, CandidatePolicy)
         policy.scorer.load_state_dict(module.scorer.state_dict())
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(target.stem + ".tmp.zip")
-        model.save(tmp)
-        tmp.replace(target)
+        save_atomic(model, target)
     finally:
         env.close()
     return target

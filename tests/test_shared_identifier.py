@@ -176,4 +176,3 @@ def test_a_one_robot_policy_never_shares_and_serves_a_batch_of_envs() -> None:
     batch = {key: np.stack([o[key] for o in observations]) for key in observations[0]}
     actions, _ = policy.predict(batch)
     assert actions.shape == (2, 2)
-
