@@ -321,7 +321,7 @@ class Motion3Localizer(Localizer):
 class BayesLocalizer(Localizer):
     """The Bayesian identifier (``anonloc_env.identify``) with a decision threshold.
 
-    Built for an env whose reward is the default :class:`anonloc_env.rewards.InformationGain`
+    Built for an env whose reward is the default ``anonloc_env.rewards.InformationGain``
     (``make_team("bayes", env)``), a team of all its robots that knows the true noise model
     (``config`` is the env's, ``scale_known``) reads the identifier that reward already runs on
     the same observations, instead of running a second one: the beliefs are the same to the bit

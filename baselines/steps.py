@@ -1,6 +1,6 @@
 """What the policies of ``baselines`` read: one step of their robots' observations
 (:class:`Step`, :func:`read_step` and :class:`OdometryLog`, defined with the env in
-:mod:`anonloc_env.robot_view`, whose default reward reads the same), and what an excitation is
+``anonloc_env.robot_view``, whose default reward reads the same), and what an excitation is
 told at a new picture (:class:`BeliefView`).
 """
 
