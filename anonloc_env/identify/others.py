@@ -169,14 +169,15 @@ def links_between(
     if before is not None and len(before.starts) != n_a:
         raise ValueError(f"before must link to prev ({n_a} rows), got {len(before.starts)} starts")
     ends, starts = np.zeros(n_a), np.full(n_b, -log_bg)
+    empty = Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))  # ends, starts filled below
     if n_a == 0 or n_b == 0:
-        return Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))
+        return empty
     w_move, w_end, w_new = _association_weights(model)
     i, j, w_pair = _edges(model, prev, rows, pix_var, before)
     graph = _Graph.of(n_a, n_b, i, j, w_move * w_pair)
     exact = _lone_and_big_weights(graph, w_end, w_new, log_bg, ends, starts)
     if not exact.any():
-        return Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))
+        return empty
     keys, extra, moved = [], [], []
     shapes = graph.size_a[exact] * (MAX_COMPONENT + 1) + graph.size_b[exact]
     for shape in _distinct(shapes)[0].tolist():
