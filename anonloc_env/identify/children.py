@@ -3,11 +3,10 @@
 
 The :class:`~anonloc_env.identify.filter.Identifier` gathers the pairs of rows within any robot's
 reach, then asks a :class:`Builder` for each kind of child: a track anchored at a previous row
-continued by a row near it (:meth:`Builder.anchored`); a track missed before, continued by a row
-near its prediction (:meth:`Builder.from_missed`); the uniform weight anchored at a pair that fits
-the robot's motion (:meth:`Builder.from_uniform`); a track missed now (:meth:`Builder.missed`);
-and the uniform weight missed now (:meth:`Builder.uniform_missed`, or
-:meth:`Builder.uniform_lost` when there are too many previous rows).
+continued by a row near it (``anchored``); a track missed before, continued by a row near its
+prediction (``from_missed``); the uniform weight anchored at a pair that fits the robot's motion
+(``from_uniform``); a track missed now (``missed``); and the uniform weight missed now
+(``uniform_missed``, or ``uniform_lost`` when there are too many previous rows).
 """
 
 from __future__ import annotations
