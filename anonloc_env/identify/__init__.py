@@ -33,12 +33,15 @@ Layout: :mod:`~anonloc_env.identify.model` (the sensor model and the densities),
 :class:`Identifier` forces the general path),
 :mod:`~anonloc_env.identify.others` (the other robots persisting between pictures, where pictures
 have misses or false positives: a link's weight in place of ``1 / lambda``),
-:mod:`~anonloc_env.identify.filter` (the :class:`Identifier`: gating, pruning, beliefs) and
+:mod:`~anonloc_env.identify.children` (how each hypothesis extends to a new picture: the
+children of the tracks and of the uniform weight, gated and scored),
+:mod:`~anonloc_env.identify.filter` (the :class:`Identifier`: extending, pruning, beliefs) and
 :mod:`~anonloc_env.identify.reference` (an exact enumerator for small cases, to check the
 identifier against).
 """
 
-from anonloc_env.identify.filter import MISSED_PER_ROBOT, PRUNE_NATS, Identifier
+from anonloc_env.identify.children import MISSED_PER_ROBOT
+from anonloc_env.identify.filter import PRUNE_NATS, Identifier
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_i0e, ring_loglik
 from anonloc_env.odometry import Interval
 

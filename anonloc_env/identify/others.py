@@ -62,6 +62,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -164,15 +165,36 @@ def links_between(
     """
     if not persists(model):
         return None
-    assert model.n_robots is not None
-    assert model.others_sigma is not None
     n_a, n_b = len(prev), len(rows)
     if before is not None and len(before.starts) != n_a:
         raise ValueError(f"before must link to prev ({n_a} rows), got {len(before.starts)} starts")
     ends, starts = np.zeros(n_a), np.full(n_b, -log_bg)
-    empty = Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))
+    empty = Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))  # ends, starts filled below
     if n_a == 0 or n_b == 0:
         return empty
+    w_move, w_end, w_new = _association_weights(model)
+    i, j, w_pair = _edges(model, prev, rows, pix_var, before)
+    graph = _Graph.of(n_a, n_b, i, j, w_move * w_pair)
+    exact = _lone_and_big_weights(graph, w_end, w_new, log_bg, ends, starts)
+    if not exact.any():
+        return empty
+    keys, extra, moved = [], [], []
+    shapes = graph.size_a[exact] * (MAX_COMPONENT + 1) + graph.size_b[exact]
+    for shape in _distinct(shapes)[0].tolist():
+        comps = np.flatnonzero(exact)[shapes == shape]  # increasing labels
+        ra, cb, w = graph.stacked(comps, *divmod(shape, MAX_COMPONENT + 1))
+        sums = _leave_out_sums(w, w_end, w_new)
+        key, value = _leave_out_weights(sums, ra, cb, n_b, ends, starts)
+        keys.append(key)
+        extra.append(value)
+        moved.append(_continuations(w, sums, ra, cb, comps))
+    return _sorted_links(ends, starts, keys, extra, moved, prev, rows)
+
+
+def _association_weights(model: SensorModel) -> tuple[float, float, float]:
+    """``(share P_D, W_end, W_new)``: a continuation's weight per unit of ``g``, a row's that
+    ends, and a new row's density (see the module docstring)."""
+    assert model.n_robots is not None
     p_d = min(model.p_detect, 1.0 - 1e-6)
     others = model.n_robots - 1
     robots = others * p_d
@@ -181,56 +203,117 @@ def links_between(
     w_end = max(1.0 - share * p_d * (1.0 - tail), END_FLOOR)
     new = model.false_positives + others * p_d * ((1.0 - p_d) + tail)
     w_new = max(new, NEW_FLOOR) / model.image_area
-    i, j, w_pair = _edges(model, prev, rows, pix_var, before)
-    w_pair = share * p_d * w_pair
-    comp_a, comp_b = _components(n_a, n_b, i, j)
-    size_a = np.bincount(comp_a, minlength=n_a + n_b)
-    size_b = np.bincount(comp_b, minlength=n_a + n_b)
-    # A row alone: Z = w_end, Z(-a) = 1. A column alone: Z(-b) / Z = 1 / w_new.
-    ends[:] = -math.log(w_end)
-    starts[:] = -math.log(w_new)
-    joined = (size_a > 0) & (size_b > 0)
-    big = joined & ((size_a > MAX_COMPONENT) | (size_b > MAX_COMPONENT))
-    # A component too big to sum exactly keeps the clutter model for its rows.
-    ends[big[comp_a]] = 0.0
-    starts[big[comp_b]] = -log_bg
-    exact = joined & ~big
-    if not exact.any():
-        return empty
-    rank_a, rank_b = _rank_in_label(comp_a), _rank_in_label(comp_b)
-    keys, extra, moved = [], [], []
-    shapes = size_a[exact] * (MAX_COMPONENT + 1) + size_b[exact]
-    for shape in _distinct(shapes)[0].tolist():
-        na, nb = divmod(shape, MAX_COMPONENT + 1)
-        comps = np.flatnonzero(exact)[shapes == shape]  # increasing labels
-        slot = np.full(n_a + n_b, -1)
+    return share * p_d, w_end, w_new
+
+
+@dataclass(frozen=True)
+class _Graph:
+    """The association's bipartite graph: edges ``i[k] - j[k]`` of weight ``w[k]`` (sorted by
+    ``i`` then ``j``), the component label of every row (``comp_a``) and column (``comp_b``),
+    and each label's count of rows (``size_a``) and columns (``size_b``)."""
+
+    i: np.ndarray
+    j: np.ndarray
+    w: np.ndarray
+    comp_a: np.ndarray
+    comp_b: np.ndarray
+    size_a: np.ndarray
+    size_b: np.ndarray
+
+    @classmethod
+    def of(cls, n_a: int, n_b: int, i: np.ndarray, j: np.ndarray, w: np.ndarray) -> _Graph:
+        """The graph of ``n_a`` rows and ``n_b`` columns with edges ``i - j`` weighing ``w``."""
+        comp_a, comp_b = _components(n_a, n_b, i, j)
+        size_a = np.bincount(comp_a, minlength=n_a + n_b)
+        size_b = np.bincount(comp_b, minlength=n_a + n_b)
+        return cls(i, j, w, comp_a, comp_b, size_a, size_b)
+
+    def stacked(
+        self, comps: np.ndarray, na: int, nb: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(rows, columns, w)`` of components ``comps`` (increasing labels), each of ``na``
+        rows and ``nb`` columns: ``(C, na)`` and ``(C, nb)`` indices by label then index, and
+        the ``(C, na, nb)`` edge weights (0: no edge)."""
+        comp_a, comp_b, i, j = self.comp_a, self.comp_b, self.i, self.j
+        slot = np.full(len(comp_a) + len(comp_b), -1)
         slot[comps] = np.arange(len(comps))
-        # The components' rows and columns, by label then index: (C, na) and (C, nb).
         in_a = np.flatnonzero(slot[comp_a] >= 0)
         ra = in_a[np.lexsort((in_a, comp_a[in_a]))].reshape(len(comps), na)
         in_b = np.flatnonzero(slot[comp_b] >= 0)
         cb = in_b[np.lexsort((in_b, comp_b[in_b]))].reshape(len(comps), nb)
         w = np.zeros((len(comps), na, nb))
         e = np.flatnonzero(slot[comp_a[i]] >= 0)
-        w[slot[comp_a[i[e]]], rank_a[i[e]], rank_b[j[e]]] = w_pair[e]
-        sums = _leave_out_sums(w, w_end, w_new)
-        z, z_a, z_b, z_ab = sums[:, 0, 0], sums[:, 1:, 0], sums[:, 0, 1:], sums[:, 1:, 1:]
-        log_z = np.log(z)[:, None]
-        ends[ra] = np.log(z_a) - log_z
-        starts[cb] = np.log(z_b) - log_z
-        keys.append((ra[:, :, None] * n_b + cb[:, None, :]).ravel())
-        extra.append(
-            (
-                np.log(z_ab) - log_z[:, :, None] - ends[ra][:, :, None] - starts[cb][:, None, :]
-            ).ravel()
-        )
-        # P(a -> b) in the association: W(a, b) Z(-a, -b) / Z.
-        p_move = (w * z_ab / z[:, None, None]).ravel()
-        frm = np.broadcast_to(ra[:, :, None], w.shape).ravel()
-        to = np.broadcast_to(cb[:, None, :], w.shape).ravel()
-        label = np.broadcast_to(comps[:, None, None], w.shape).ravel()
-        keep = p_move >= MOVE_FLOOR
-        moved.append(np.stack([label[keep], frm[keep], to[keep], p_move[keep]], 1))
+        rank_a, rank_b = self.rank_a, self.rank_b
+        w[slot[comp_a[i[e]]], rank_a[i[e]], rank_b[j[e]]] = self.w[e]
+        return ra, cb, w
+
+    @cached_property
+    def rank_a(self) -> np.ndarray:
+        """Each row's position among its component's rows, in increasing order."""
+        return _rank_in_label(self.comp_a)
+
+    @cached_property
+    def rank_b(self) -> np.ndarray:
+        """Each column's position among its component's columns, in increasing order."""
+        return _rank_in_label(self.comp_b)
+
+
+def _lone_and_big_weights(
+    graph: _Graph, w_end: float, w_new: float, log_bg: float, ends: np.ndarray, starts: np.ndarray
+) -> np.ndarray:
+    """Fill ``ends`` and ``starts`` (in place) for every row and column, exact for those alone
+    and the clutter model's in components too big; return which labels are summed exactly."""
+    # A row alone: Z = w_end, Z(-a) = 1. A column alone: Z(-b) / Z = 1 / w_new.
+    ends[:] = -math.log(w_end)
+    starts[:] = -math.log(w_new)
+    size_a, size_b = graph.size_a, graph.size_b
+    joined = (size_a > 0) & (size_b > 0)
+    big = joined & ((size_a > MAX_COMPONENT) | (size_b > MAX_COMPONENT))
+    # A component too big to sum exactly keeps the clutter model for its rows.
+    ends[big[graph.comp_a]] = 0.0
+    starts[big[graph.comp_b]] = -log_bg
+    return joined & ~big
+
+
+def _leave_out_weights(
+    sums: np.ndarray, ra: np.ndarray, cb: np.ndarray, n_b: int, ends: np.ndarray, starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Fill ``ends`` and ``starts`` (in place) of rows ``ra`` and columns ``cb`` from their
+    components' leave-out ``sums``; return their pairs' keys ``a * n_b + b`` and ``extra``."""
+    z, z_a, z_b, z_ab = sums[:, 0, 0], sums[:, 1:, 0], sums[:, 0, 1:], sums[:, 1:, 1:]
+    log_z = np.log(z)[:, None]
+    ends[ra] = np.log(z_a) - log_z
+    starts[cb] = np.log(z_b) - log_z
+    key = (ra[:, :, None] * n_b + cb[:, None, :]).ravel()
+    extra = np.log(z_ab) - log_z[:, :, None] - ends[ra][:, :, None] - starts[cb][:, None, :]
+    return key, extra.ravel()
+
+
+def _continuations(
+    w: np.ndarray, sums: np.ndarray, ra: np.ndarray, cb: np.ndarray, comps: np.ndarray
+) -> np.ndarray:
+    """``(M, 4)`` rows ``(label, a, b, p)``: each continuation ``a -> b`` of components
+    ``comps`` whose probability ``p = W(a, b) Z(-a, -b) / Z`` in the association is at least
+    :data:`MOVE_FLOOR`."""
+    p_move = (w * sums[:, 1:, 1:] / sums[:, 0, 0][:, None, None]).ravel()
+    frm = np.broadcast_to(ra[:, :, None], w.shape).ravel()
+    to = np.broadcast_to(cb[:, None, :], w.shape).ravel()
+    label = np.broadcast_to(comps[:, None, None], w.shape).ravel()
+    keep = p_move >= MOVE_FLOOR
+    return np.stack([label[keep], frm[keep], to[keep], p_move[keep]], 1)
+
+
+def _sorted_links(
+    ends: np.ndarray,
+    starts: np.ndarray,
+    keys: list[np.ndarray],
+    extra: list[np.ndarray],
+    moved: list[np.ndarray],
+    prev: np.ndarray,
+    rows: np.ndarray,
+) -> Links:
+    """The :class:`Links` of the exact sums: the pairs sorted by key, the continuations by
+    component, row and column."""
     key = np.concatenate(keys).astype(np.int64)
     value = np.concatenate(extra)
     order = np.argsort(key, kind="stable")

@@ -25,6 +25,8 @@ bound shows cannot matter (:data:`REFERENCE_MARGIN_NATS`) are dropped as it goes
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,17 +45,23 @@ POINTS_PER_SIGMA = 3.0
 REFERENCE_MARGIN_NATS = 60.0
 
 
-def _log_weights(
-    model: SensorModel, pictures: list[np.ndarray]
-) -> tuple[float, float, list[float], float]:
-    """``(log P_D, log (1 - P_D), log lambda per picture, pixel variance)`` as the identifier
-    takes them (the same floors)."""
+class _Weights(NamedTuple):
+    """``log P_D``, ``log (1 - P_D)``, ``log lambda`` per picture and the pixel variance."""
+
+    log_pd: float
+    log_miss: float
+    log_bg: list[float]
+    pix_var: float
+
+
+def _log_weights(model: SensorModel, pictures: list[np.ndarray]) -> _Weights:
+    """The :class:`_Weights` as the identifier takes them (the same floors)."""
     log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
     log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
     log_bg = [log_background(model, len(rows)) for rows in pictures]
     extent = max((float(np.abs(r[:, :2]).max()) for r in pictures if len(r)), default=1.0)
     pix_var = model.pixel_noise**2 + (1e-4 + 1e-6 * extent) ** 2
-    return log_pd, log_miss, log_bg, pix_var
+    return _Weights(log_pd, log_miss, log_bg, pix_var)
 
 
 def _grids(
@@ -135,20 +143,73 @@ def _one_robot(
     robot: int,
     chunk: int,
 ) -> list[tuple[np.ndarray, float]]:
-    log_pd, log_miss, log_bg, pix_var = _log_weights(model, pictures)
+    """Robot ``robot``'s ``(belief, missing)`` at every picture (see :func:`exact_beliefs`)."""
+    weights = _log_weights(model, pictures)
+    links = _links(model, pictures, weights)
+    th0, s = _grid_points(model, intervals, robot, weights.pix_var)
+    var_z = model.orientation_noise**2 + 1e-10
+    turn = np.concatenate([[0.0], np.cumsum([iv.dphi[robot] for iv in intervals])])
+    best_gain, miss_down = _gain_bounds(model, weights, links, var_z)
+    prefixes = _Prefixes.start(th0.shape[1])
+    out = []
+    for k, rows in enumerate(pictures):
+        if k > 0:
+            prefixes.predict(intervals[k - 1].d[robot], th0 + turn[k - 1], s, model.scale_spread)
+        prefixes, row = prefixes.branch(len(rows))
+        seen = row >= 0
+        _weigh_misses(prefixes, seen, weights.log_miss, links[k])
+        if len(rows):
+            z = rows[np.maximum(row, 0)]
+            _weigh_detections(prefixes, row, weights.log_pd, weights.log_bg[k], links[k])
+            _weigh_positions(prefixes, seen, z, model.image_area, weights.pix_var)
+            if model.orientation:
+                _weigh_headings(prefixes, seen, z, th0 + turn[k], var_z)
+            prefixes.anchored = prefixes.anchored | seen
+        # Integrate over the grid (prior: uniform, 1 / points per point).
+        logw = np.logaddexp.reduce(prefixes.loglik, axis=1) - math.log(th0.shape[1])
+        out.append(_posterior(logw, row, len(rows) + 1))
+        if k + 1 < len(pictures):
+            later = slice(k + 1, None)
+            bounds = best_gain[later], miss_down[later]
+            prefixes = _drop_hopeless(prefixes, logw, *bounds, weights.log_miss)
+            if len(prefixes.loglik) * th0.shape[1] > chunk * MAX_TRACKS:
+                raise ValueError(
+                    f"{len(prefixes.loglik)} live tracks x {th0.shape[1]} grid points: too large"
+                )
+    return out
+
+
+def _links(model: SensorModel, pictures: list[np.ndarray], weights: _Weights) -> list[Links | None]:
+    """The links between consecutive pictures (:func:`links_between`; ``None`` for the first
+    picture and where the clutter model holds)."""
     links: list[Links | None] = [None]
     for k in range(1, len(pictures)):  # each link knows how the rows of the one before moved
         links.append(
-            links_between(model, pictures[k - 1], pictures[k], log_bg[k], pix_var, links[-1])
+            links_between(
+                model, pictures[k - 1], pictures[k], weights.log_bg[k], weights.pix_var, links[-1]
+            )
         )
+    return links
+
+
+def _grid_points(
+    model: SensorModel, intervals: list[Interval], robot: int, pix_var: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(theta0, s)`` at every point of the grid over ``theta0`` and ``log s``, as ``(1, G)``."""
     theta_grid, log_s_grid = _grids(model, intervals, robot, pix_var)
     th0 = np.repeat(theta_grid, len(log_s_grid))[None, :]
     s = np.exp(np.tile(log_s_grid, len(theta_grid)))[None, :]
-    log_grid = math.log(th0.shape[1])
-    var_z = model.orientation_noise**2 + 1e-10
-    turn = np.concatenate([[0.0], np.cumsum([iv.dphi[robot] for iv in intervals])])
-    # Bounds on what one picture can multiply a track's weight by: at most the best detection
-    # (a Kalman innovation is at least 2 pixel variances wide), at least a miss (always there).
+    return th0, s
+
+
+def _gain_bounds(
+    model: SensorModel, weights: _Weights, links: list[Links | None], var_z: float
+) -> tuple[list[float], list[float]]:
+    """Per picture, bounds on what it can multiply a track's weight by (log): at most
+    ``best_gain``, and a miss's link at least ``miss_down``."""
+    log_pd, log_miss, log_bg, pix_var = weights
+    # At most the best detection (a Kalman innovation is at least 2 pixel variances wide), at
+    # least a miss (always there).
     heading_gain = LOG_2PI - 0.5 * math.log(2 * math.pi * var_z) if model.orientation else 0.0
     # With the others persisting, a link's weight in place of -log lambda is at most
     # max(starts) + max(ends, 0) + max(extra, 0); a miss's lies in [min(ends, 0), max(ends, 0)].
@@ -170,85 +231,136 @@ def _one_robot(
         )
         for u, m in zip(link_up, miss_up, strict=True)
     ]
-    # State of every live track prefix at every grid point.
-    track_rows = np.zeros((1, 0), dtype=np.int64)
-    anchored = np.zeros(1, dtype=bool)
-    mean = np.zeros((1, th0.shape[1], 2))
-    var = np.zeros((1, th0.shape[1]))
-    loglik = np.zeros((1, th0.shape[1]))
-    out = []
-    for k, rows in enumerate(pictures):
-        n_k = len(rows)
-        if k > 0:
-            d = intervals[k - 1].d[robot]
-            heading = th0 + turn[k - 1]
-            step = np.stack(
-                [
-                    np.cos(heading) * d[0] - np.sin(heading) * d[1],
-                    np.sin(heading) * d[0] + np.cos(heading) * d[1],
-                ],
-                axis=-1,
-            )
-            mean = mean + step * s[..., None]
-            var = var + (model.scale_spread * s * math.hypot(*d)) ** 2
-        # Every prefix continues with a miss or with each row.
-        options = n_k + 1
-        parent = np.repeat(np.arange(len(loglik)), options)
-        row = np.tile(np.arange(-1, n_k), len(loglik))
-        track_rows = np.column_stack([track_rows[parent], row])
-        anchored, mean, var, loglik = anchored[parent], mean[parent], var[parent], loglik[parent]
-        seen = row >= 0
-        loglik[~seen] += log_miss
-        link = links[k]
-        if link is not None:  # the others persist: a miss weighed by what it leaves them
-            loglik[~seen] += link.miss(track_rows[~seen, -2])[:, None]
-        if n_k:
-            z = rows[np.maximum(row, 0)]
-            first = seen & ~anchored
-            again = seen & anchored
-            if link is None:
-                loglik[seen] += log_pd - log_bg[k]
-            else:
-                loglik[seen] += log_pd + link.detect(track_rows[seen, -2], row[seen])[:, None]
-            # First detection: uniform over the image.
-            loglik[first] -= math.log(model.image_area)
-            mean[first] = z[first][:, None, :2]
-            var[first] = pix_var
-            # Again: the Kalman filter's innovation.
-            if again.any():
-                e = z[again][:, None, :2] - mean[again]
-                total = var[again] + pix_var
-                loglik[again] += -LOG_2PI - np.log(total) - (e**2).sum(-1) / (2 * total)
-                gain = var[again] / total
-                mean[again] = mean[again] + gain[..., None] * e
-                var[again] = var[again] * (1 - gain)
-            if model.orientation:
-                err = wrap_angle(z[seen][:, None, 2] - (th0 + turn[k]))
-                # Against the uniform heading of the other detections.
-                loglik[seen] += LOG_2PI - 0.5 * (math.log(2 * math.pi * var_z) + err**2 / var_z)
-            anchored = anchored | seen
-        # Integrate over the grid (prior: uniform, 1 / points per point).
-        logw = np.logaddexp.reduce(loglik, axis=1) - log_grid
-        w = np.exp(logw - logw.max())
-        w /= w.sum()
-        belief = np.bincount(row + 1, weights=w, minlength=options)
-        out.append((belief[1:], float(belief[0])))
-        # Drop prefixes that cannot matter at any later picture: even if every later picture
-        # multiplied them by the most possible and the best prefix by the least, they would
-        # stay PRUNE_NATS below it (a bound, not an approximation: about 1e-17 at most).
-        rest = len(pictures) - 1 - k
-        if rest:
-            up = sum(best_gain[k + 1 :])
-            down = rest * log_miss + sum(miss_down[k + 1 :])
-            keep = logw + up >= logw.max() + down - REFERENCE_MARGIN_NATS
-            keep_i = np.flatnonzero(keep)
-            track_rows, anchored = track_rows[keep_i], anchored[keep_i]
-            mean, var, loglik = mean[keep_i], var[keep_i], loglik[keep_i]
-            if len(loglik) * th0.shape[1] > chunk * MAX_TRACKS:
-                raise ValueError(
-                    f"{len(loglik)} live tracks x {th0.shape[1]} grid points: too large"
-                )
-    return out
+    return best_gain, miss_down
+
+
+@dataclass
+class _Prefixes:
+    """Every live track prefix at every one of the ``G`` grid points.
+
+    Attributes:
+        taken: ``(T, k)`` the row each prefix took in each picture so far (-1: missed).
+        anchored: ``(T,)`` whether it was detected yet.
+        mean, var: ``(T, G, 2)`` and ``(T, G)``, the Kalman filter's position estimate.
+        loglik: ``(T, G)`` its log likelihood.
+    """
+
+    taken: np.ndarray
+    anchored: np.ndarray
+    mean: np.ndarray
+    var: np.ndarray
+    loglik: np.ndarray
+
+    @classmethod
+    def start(cls, points: int) -> _Prefixes:
+        """The empty prefix, before any picture."""
+        return cls(
+            np.zeros((1, 0), dtype=np.int64),
+            np.zeros(1, dtype=bool),
+            np.zeros((1, points, 2)),
+            np.zeros((1, points)),
+            np.zeros((1, points)),
+        )
+
+    def take(self, index: np.ndarray) -> _Prefixes:
+        """Prefixes ``index``."""
+        return _Prefixes(
+            self.taken[index],
+            self.anchored[index],
+            self.mean[index],
+            self.var[index],
+            self.loglik[index],
+        )
+
+    def predict(self, d: np.ndarray, heading: np.ndarray, s: np.ndarray, spread: float) -> None:
+        """Move the estimates by the robot's leg ``d`` (its own frame) at each grid point's
+        ``heading`` and scale ``s``, the variance grown by the scale ``spread``."""
+        step = np.stack(
+            [
+                np.cos(heading) * d[0] - np.sin(heading) * d[1],
+                np.sin(heading) * d[0] + np.cos(heading) * d[1],
+            ],
+            axis=-1,
+        )
+        self.mean = self.mean + step * s[..., None]
+        self.var = self.var + (spread * s * math.hypot(*d)) ** 2
+
+    def branch(self, n_k: int) -> tuple[_Prefixes, np.ndarray]:
+        """Every prefix continued with a miss and with each of ``n_k`` rows, and the row each
+        child took (-1: missed)."""
+        parent = np.repeat(np.arange(len(self.loglik)), n_k + 1)
+        row = np.tile(np.arange(-1, n_k), len(self.loglik))
+        children = self.take(parent)
+        children.taken = np.column_stack([children.taken, row])
+        return children, row
+
+
+def _weigh_misses(p: _Prefixes, seen: np.ndarray, log_miss: float, link: Links | None) -> None:
+    """A miss weighs ``1 - P_D``, and where the others persist what it leaves them."""
+    p.loglik[~seen] += log_miss
+    if link is not None:
+        p.loglik[~seen] += link.miss(p.taken[~seen, -2])[:, None]
+
+
+def _weigh_detections(
+    p: _Prefixes, row: np.ndarray, log_pd: float, log_bg: float, link: Links | None
+) -> None:
+    """A detection weighs ``P_D / lambda``, or ``P_D`` times the link's weight where the others
+    persist."""
+    seen = row >= 0
+    if link is None:
+        p.loglik[seen] += log_pd - log_bg
+    else:
+        p.loglik[seen] += log_pd + link.detect(p.taken[seen, -2], row[seen])[:, None]
+
+
+def _weigh_positions(
+    p: _Prefixes, seen: np.ndarray, z: np.ndarray, image_area: float, pix_var: float
+) -> None:
+    """A first detection ``z`` is uniform over the image; a later one weighs the Kalman
+    filter's innovation, which updates the estimate."""
+    first = seen & ~p.anchored
+    again = seen & p.anchored
+    p.loglik[first] -= math.log(image_area)
+    p.mean[first] = z[first][:, None, :2]
+    p.var[first] = pix_var
+    if again.any():
+        e = z[again][:, None, :2] - p.mean[again]
+        total = p.var[again] + pix_var
+        p.loglik[again] += -LOG_2PI - np.log(total) - (e**2).sum(-1) / (2 * total)
+        gain = p.var[again] / total
+        p.mean[again] = p.mean[again] + gain[..., None] * e
+        p.var[again] = p.var[again] * (1 - gain)
+
+
+def _weigh_headings(
+    p: _Prefixes, seen: np.ndarray, z: np.ndarray, heading: np.ndarray, var_z: float
+) -> None:
+    """A detected heading against the grid point's ``heading``, over the uniform heading of the
+    other detections."""
+    err = wrap_angle(z[seen][:, None, 2] - heading)
+    p.loglik[seen] += LOG_2PI - 0.5 * (math.log(2 * math.pi * var_z) + err**2 / var_z)
+
+
+def _posterior(logw: np.ndarray, row: np.ndarray, options: int) -> tuple[np.ndarray, float]:
+    """``(belief, missing)`` from the prefixes' log weights ``logw`` and newest rows ``row``."""
+    w = np.exp(logw - logw.max())
+    w /= w.sum()
+    belief = np.bincount(row + 1, weights=w, minlength=options)
+    return belief[1:], float(belief[0])
+
+
+def _drop_hopeless(
+    p: _Prefixes, logw: np.ndarray, best_gain: list[float], miss_down: list[float], log_miss: float
+) -> _Prefixes:
+    """The prefixes that can matter at a later picture (``best_gain``, ``miss_down``: the
+    later pictures' bounds): dropped are those that would stay :data:`REFERENCE_MARGIN_NATS`
+    below the best even if every later picture multiplied them by the most possible and the
+    best by the least (a bound, not an approximation: about 1e-17 at most)."""
+    up = sum(best_gain)
+    down = len(best_gain) * log_miss + sum(miss_down)
+    keep = logw + up >= logw.max() + down - REFERENCE_MARGIN_NATS
+    return p.take(np.flatnonzero(keep))
 
 
 def total_variation(
