@@ -174,8 +174,9 @@ class InformationGain:
     (tens of milliseconds per picture at N = 1000); use :class:`EnergyCost` where speed matters
     more than this reward.
 
-    The identifier is fed what the robots observed (:attr:`anonloc_env.rewards.StepContext.seen`: the picture's rows
-    and each robot's odometry as float32, its motion log kept as a team keeps it), so it holds
+    The identifier is fed what the robots observed
+    (:attr:`anonloc_env.rewards.StepContext.seen`: the picture's rows and each robot's odometry
+    as float32, its motion log kept as a team keeps it), so it holds
     the very belief that a ``bayes`` team of all the env's robots computes: such a team, built
     for the env (``baselines.make_team("bayes", env)``), reads :attr:`identifier` instead of
     running a second one.
