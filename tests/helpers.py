@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +13,15 @@ import anonloc_env
 
 #: The repository's root (needs nothing but the standard library).
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def python_output(code: str) -> str:
+    """What ``python -c code`` prints (stripped), run in a fresh interpreter from the repository
+    root: for what a new process imports (a check of the import cost, not of this test's)."""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    return done.stdout.strip()
 
 
 def constant_actions(env: Any, action: tuple[float, float]) -> dict[str, np.ndarray]:

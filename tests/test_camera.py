@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -12,7 +10,7 @@ import pytest
 import anonloc_env
 from anonloc_env.camera import Camera, Picture, detection_capacity, survey
 from anonloc_env.identify import SensorModel
-from tests.helpers import ROOT, constant_actions
+from tests.helpers import constant_actions, python_output
 
 
 def _take(config: anonloc_env.EnvConfig, poses: np.ndarray, seed: int = 0):
@@ -262,7 +260,4 @@ def test_the_geometric_camera_never_imports_the_image_path() -> None:
         "SensorModel.from_config(env.config)\n"
         "print(sorted(m for m in sys.modules if m.startswith('anonloc_env.images')))\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, check=True
-    )
-    assert out.stdout.strip() == "[]"
+    assert python_output(script) == "[]"

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from tests.cli_helpers import ROOT, invoke, run_module
+from tests.helpers import python_output
 
 COMMANDS = ["reproduce", "bench", "study", "render", "frame"]
 
@@ -69,10 +69,7 @@ def test_help_imports_nothing_heavy() -> None:
         "heavy += [m for m in sys.modules if m.startswith('baselines.')]; "
         "print([m for m in heavy if m in sys.modules and m != 'baselines.catalog'])"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
-    )
-    assert done.stdout.strip() == "[]"
+    assert python_output(code) == "[]"
 
 
 def test_no_library_module_imports_the_cli() -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -19,6 +18,7 @@ from baselines.localizers import AngularLocalizer, BayesLocalizer
 from baselines.policies import Team
 from baselines.runner import run_episode
 from baselines.steps import BeliefView, Step
+from tests.helpers import python_output
 
 
 class Counting(Excitation):
@@ -141,5 +141,4 @@ def test_baselines_lists_every_policy_without_importing_agents() -> None:
         "import sys, baselines; baselines.policy_names(); "
         "print(sorted(m for m in sys.modules if m.split('.')[0] == 'agents'))"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+    assert python_output(code) == "[]"
