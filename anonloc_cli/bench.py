@@ -207,8 +207,9 @@ def identified_at(
 def episode_summary(
     rows: Sequence[dict[str, Any]], fraction: float = 0.99
 ) -> tuple[list[str], list[list[str]]]:
-    """Per (policy, scenario): pictures until ``fraction`` of the robots present are identified,
-    and the energy per robot until then, means over the episodes with 95 % intervals."""
+    """Per (policy, scenario): pictures seen until ``fraction`` of the robots present are
+    identified (the one at reset counted as 1, as ``pictures_to_decision`` counts), and the
+    energy per robot until then, means over the episodes with 95 % intervals."""
     episodes: dict[tuple[str, str], dict[int, list[dict[str, Any]]]] = {}
     for row in rows:
         key = (row["policy"], row["scenario"])
@@ -219,7 +220,7 @@ def episode_summary(
         "scenario",
         "episodes",
         f"reached {percent}",
-        f"picture reaching {percent} (95 % CI)",
+        f"pictures to {percent} (95 % CI)",
         "energy per robot, m (95 % CI)",
     ]
     out = []
@@ -232,7 +233,8 @@ def episode_summary(
                 scenario,
                 str(len(results)),
                 f"{100 * len(reached) / len(results):.1f} %",
-                str(tables.mean_interval([p for p, _ in reached])),
+                # pictures seen, the one at reset counted as 1: as "pictures to decision"
+                str(tables.mean_interval([p + 1 for p, _ in reached])),
                 str(tables.mean_interval([e for _, e in reached])),
             ]
         )
@@ -261,7 +263,8 @@ def main(
     policies = [e.label for e in entries]
     excitations = sorted({e.excitation or "" for e in entries})
     excitation = excitations[0] or None if len(excitations) == 1 else ", ".join(excitations)
-    report, records = jobs.run_stored(work, store_path(out), run, description="bench")
+    command = "eval" if identification else "bench"
+    report, records = jobs.run_stored(work, store_path(out), run, description=command)
     rows = [row for u in work if u.key in records for row in records[u.key]["result"]]
     record = provenance.provenance(
         {s.name: config_to_dict(s.config) for s in scenarios},
@@ -279,7 +282,7 @@ def main(
     store.write_json(store.meta_path(out), record)
     headers, table = summary(rows)
     wall = time.perf_counter() - start
-    tables.show("bench: success at each robot's first decision", headers, table)
+    tables.show(f"{command}: success at each robot's first decision", headers, table)
     lines = [
         f"# Bench: {', '.join(policies)} on {', '.join(s.name for s in scenarios)}",
         "",
@@ -300,10 +303,10 @@ def main(
             "",
             tables.markdown(headers, table),
             "",
-            "Per episode: the first picture (0: the one at reset) at which at least 99 % of the "
-            "robots in it are decided (belief >= 0.99) on their true row, and the mean wheel "
-            "travel per robot until then; means over the episodes that reached it (95 % normal "
-            "interval).",
+            "Per episode: the pictures seen (the one at reset counted as 1, as in pictures to "
+            "decision) until at least 99 % of the robots in a picture are decided (belief >= "
+            "0.99) on their true row, and the mean wheel travel per robot until then; means over "
+            "the episodes that reached it (95 % normal interval).",
             "",
         ]
     text = "\n".join([*lines, provenance.markdown(record)])

@@ -155,6 +155,20 @@ def file_hash(path: Path) -> str:
     return digest.hexdigest()[:20]
 
 
+def agent_identity(agent: Path) -> str:
+    """What the loaded agent depends on, for the stored episodes' keys: the hash of its file's
+    bytes and the condition and budget its run's ``config.json`` records (the loader reads them).
+    A retrained ``agent.zip``, or an edited ``config.json``, runs its episodes again."""
+    from agents.saved_agent import run_settings
+
+    file = agent_file(agent)
+    try:
+        settings = run_settings(file)
+    except ValueError as error:
+        raise InputError(f"--agent: {error}") from None
+    return f"{file_hash(file)} {json.dumps(settings, sort_keys=True)}"
+
+
 def evaluate(
     *,
     agent: Path,
@@ -185,10 +199,7 @@ def evaluate(
             resolved = scenarios.build(resolved.name, spec)
     else:
         resolved = scenarios.resolve(scenario, sets)
-    # Stored episodes are keyed on the file's contents: a retrained agent.zip runs again.
-    entries = [
-        bench.Entry("agent", "agent", None, {"path": str(path)}, file_hash(agent_file(path)))
-    ]
+    entries = [bench.Entry("agent", "agent", None, {"path": str(path)}, agent_identity(path))]
     for name in against:
         teams.check_excitation(name)
         entries.append(bench.Entry(name, "bayes", name))
