@@ -99,14 +99,37 @@ def train(
         f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "
         f"agent: {result.agent}; logs: tensorboard --logdir {result.directory / 'tb'}"
     )
-    if result.comparison is not None:
-        mine, random = result.comparison
-        change = 100.0 * (random - mine) / random if random else 0.0
+    total = timesteps
+    if total is None:
+        total = DEFAULT_TIMESTEPS if resume is None else _recorded_total(result.directory)
+    if result.timesteps < total:
         echo(
-            f"pictures to 99 % on the evaluation seeds: this agent {mine:.2f}, random motion "
-            f"{random:.2f} ({change:+.0f} % fewer pictures than random)"
+            f"stopped at {100 * result.timesteps / total:.0f} % of the run's {total} robot-steps: "
+            "the --minutes budget ran out. Continue with: anonloc train --resume "
+            f"{result.directory}"
         )
+    if result.comparison is not None:
+        echo(comparison_text(*result.comparison))
     return 0
+
+
+def comparison_text(mine: float, random: float) -> str:
+    """The closing line: the agent's pictures to 99 % against random motion's, in words."""
+    text = (
+        f"pictures to 99 % on the evaluation seeds: this agent {mine:.2f}, random motion "
+        f"{random:.2f}"
+    )
+    if not random or abs(mine - random) < 0.005:
+        return f"{text} (as many as random)"
+    change = 100.0 * abs(random - mine) / random
+    return f"{text} ({change:.0f} % {'fewer' if mine < random else 'more'} pictures than random)"
+
+
+def _recorded_total(directory: Path) -> int:
+    """The total robot-steps a run's ``config.json`` records."""
+    from agents.run_folder import read_config
+
+    return int(read_config(directory).get("timesteps", DEFAULT_TIMESTEPS))
 
 
 def _new_config(module: Any, *, scenario: str, sets: Sequence[str], **options: Any) -> Any:

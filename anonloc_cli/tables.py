@@ -71,21 +71,62 @@ def markdown(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     )
 
 
-#: Widest a printed table gets (columns): it fits a terminal of that width, headers wrapping.
+#: Width (columns) of a table printed to a pipe or a file, unless it needs more.
 WIDTH = 100
+
+#: Plain spellings of the signs the tables use, for a terminal that cannot show them.
+PLAIN = {"±": "+-", "°": " deg", "≥": ">=", "≤": "<=", "²": "^2", "×": "x", "–": "-", "—": "-"}
+
+
+def plain(text: str, encoding: str) -> str:
+    """``text`` as ``encoding`` can show it: the signs of :data:`PLAIN` spelled out, anything
+    else it lacks as ``?``."""
+    try:
+        text.encode(encoding)
+        return text
+    except (UnicodeEncodeError, LookupError):
+        pass
+    for sign, spelled in PLAIN.items():
+        text = text.replace(sign, spelled)
+    return text.encode(encoding, errors="replace").decode(encoding, errors="replace")
+
+
+def natural_width(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> int:
+    """Columns a table takes with no cell wrapped: the widest cell of each column, one space of
+    padding on each side, and a border between and around the columns."""
+    from rich.cells import cell_len
+
+    widths = [cell_len(h) for h in headers]
+    for row in rows:
+        widths = [max(w, cell_len(str(c))) for w, c in zip(widths, row, strict=True)]
+    return sum(widths) + 3 * len(widths) + 1
 
 
 def show(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
-    """Print a table to the terminal with rich."""
+    """Print a table with rich: as a grid where it fits the terminal (to a pipe or a file: at its
+    natural width), else as one block of ``header: value`` lines per row; no cell is wrapped or
+    cut. Signs the output's encoding lacks are spelled out (``±`` as ``+-``, ``°`` as
+    `` deg``)."""
     from rich.console import Console
     from rich.table import Table
 
     console = Console()
-    if not console.is_terminal or console.width > WIDTH:  # a pipe, a log file, a wide terminal
-        console = Console(width=WIDTH)
-    table = Table(title=title, title_justify="left")
+    encoding = console.encoding
+    title, headers = plain(title, encoding), [plain(h, encoding) for h in headers]
+    rows = [[plain(str(c), encoding) for c in row] for row in rows]
+    if not console.is_terminal:  # a pipe, a log file: no width to fit, nothing wraps
+        console = Console(width=max(WIDTH, natural_width(headers, rows)))
+    table = Table(title=title, title_justify="left", safe_box=True)
     for i, header in enumerate(headers):
-        table.add_column(header, justify="left" if i == 0 else "right", no_wrap=i == 0)
+        table.add_column(header, justify="left" if i == 0 else "right", no_wrap=True)
     for row in rows:
-        table.add_row(*(str(c) for c in row))
-    console.print(table)
+        table.add_row(*row)
+    if natural_width(headers, rows) <= console.width:
+        console.print(table)
+        return
+    console.print(title, highlight=False, soft_wrap=True)
+    for row in rows:
+        first = f"{headers[0]}: {row[0]}" if headers[0] else row[0]
+        console.print(f"- {first}", highlight=False, soft_wrap=True)
+        for header, cell in zip(headers[1:], row[1:], strict=True):
+            console.print(f"  {header}: {cell}", highlight=False, soft_wrap=True)
