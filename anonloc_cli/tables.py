@@ -75,7 +75,7 @@ def markdown(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 WIDTH = 100
 
 #: Plain spellings of the signs the tables use, for a terminal that cannot show them.
-PLAIN = {"±": "+-", "°": " deg", "≥": ">=", "≤": "<=", "²": "^2", "×": "x", "–": "-", "—": "-"}
+PLAIN = {"±": "+-", "°": " deg", "≥": ">=", "≤": "<=", "²": "^2", "\u00d7": "x", "\u2013": "-"}
 
 
 def plain(text: str, encoding: str) -> str:
