@@ -2,9 +2,10 @@
 
 At every picture each robot's current estimate is handed to the env (``env.guesses``), so the
 frames show every robot's guess: a green ring around the robot when it is right, a red ring on the
-detection it chose (joined to it by a red line) when it is wrong; a legend says so.
-``render`` takes a frame every ``1 / fps`` seconds of simulated time and writes a GIF or MP4 played
-back in real time (or shows a window); ``frame`` writes the last frame as a PNG.
+detection it chose (joined to it by a red line) when it is wrong, an amber ring while it is
+undecided; a legend says so. ``render`` takes a frame every ``1 / fps`` seconds of simulated time
+and streams it to a GIF or MP4 played back in real time (or shows a window); ``frame`` writes the
+last frame as a PNG. Both refuse more ``--steps`` than the scenario's ``max_cycles``.
 """
 
 from __future__ import annotations

@@ -18,7 +18,9 @@ from tests.cli_helpers import SCRIPT, read_csv, run_script, script_env
 pytest.importorskip("stable_baselines3")
 
 from agents.policy import BUNDLED
-from agents.saved_agent import MEMBER_LIMITS
+
+#: The documented limit of a saved agent's ``data`` member (docs/cli.md; agents.saved_agent).
+DATA_LIMIT = 16 << 20
 
 #: A short evaluation: 1 episode of 3 pictures.
 SHORT = ("--seeds", "1", "--pictures", "3", "--workers", "1")
@@ -86,7 +88,7 @@ def test_a_garbage_weights_member_is_one_message_naming_it_without_unsafe_advice
 def test_a_data_member_past_its_limit_is_refused_before_it_is_read(tmp_path: Path) -> None:
     with zipfile.ZipFile(BUNDLED) as source:
         data = source.read("data")
-    padded = data + b" " * (MEMBER_LIMITS["data"] + 1 - len(data))  # still valid JSON
+    padded = data + b" " * (DATA_LIMIT + 1 - len(data))  # still valid JSON
     agent = _rewritten(tmp_path, "agent.zip", "data", padded)
     assert agent.stat().st_size < 2 << 20  # a small zip declaring a large member
     done = _eval(agent, tmp_path / "d.csv")
@@ -192,7 +194,7 @@ def test_two_plugins_claiming_one_name_say_which_one_is_used(tmp_path: Path) -> 
 
 
 def test_anonlocs_own_agent_wins_over_a_plugin_of_the_same_name(tmp_path: Path) -> None:
-    from baselines.catalog import plugin_notes
+    from baselines.catalog import plugin_notes  # type: ignore[attr-defined,unused-ignore]
 
     _plugin(tmp_path, "aaa-plugin", {"agent": "plugin_aaa:team"}, "plugin_aaa", _WORKING)
     code = "from baselines.catalog import plugin_notes; print(plugin_notes(['agent']))"
