@@ -61,7 +61,7 @@ Sets = Annotated[
     ),
 ]
 OutFolder = Annotated[Path, typer.Option(help="Output folder.")]
-OutTable = Annotated[Path, typer.Option(help="Output file: FILE.csv or FILE.parquet.")]
+OutTable = Annotated[Path, typer.Option(help="Output file: .csv or .parquet.")]
 
 #: The table formats ``--out`` writes (``bench``, ``eval``, ``detect``): any other suffix is
 #: refused before any work, never written as CSV under a misleading name.

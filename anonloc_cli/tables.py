@@ -71,7 +71,7 @@ def markdown(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     )
 
 
-#: Width (columns) of a table printed to a pipe or a file, unless it needs more.
+#: Width (columns) of a table printed to a pipe or a file, unless its cells need more.
 WIDTH = 100
 
 #: Plain spellings of the signs the tables use, for a terminal that cannot show them.
@@ -91,22 +91,23 @@ def plain(text: str, encoding: str) -> str:
     return text.encode(encoding, errors="replace").decode(encoding, errors="replace")
 
 
-def natural_width(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> int:
-    """Columns a table takes with no cell wrapped: the widest cell of each column, one space of
-    padding on each side, and a border between and around the columns."""
+def column_widths(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> list[int]:
+    """The narrowest each column can be with no cell wrapped: its widest cell, or its header's
+    longest word (a header may wrap between words)."""
     from rich.cells import cell_len
 
-    widths = [cell_len(h) for h in headers]
+    widths = [max((cell_len(w) for w in h.split()), default=0) for h in headers]
     for row in rows:
         widths = [max(w, cell_len(str(c))) for w, c in zip(widths, row, strict=True)]
-    return sum(widths) + 3 * len(widths) + 1
+    return widths
 
 
 def show(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
-    """Print a table with rich: as a grid where it fits the terminal (to a pipe or a file: at its
-    natural width), else as one block of ``header: value`` lines per row; no cell is wrapped or
-    cut. Signs the output's encoding lacks are spelled out (``±`` as ``+-``, ``°`` as
-    `` deg``)."""
+    """Print a table with rich: as a grid where it fits the terminal with no cell wrapped
+    (headers may wrap between words; to a pipe or a file: a grid as wide as it needs, at least
+    :data:`WIDTH`), else as one block of ``header: value`` lines per row, so that no cell is
+    wrapped or cut. Signs the output's encoding lacks are spelled out (``±`` as ``+-``, ``°``
+    as `` deg``)."""
     from rich.console import Console
     from rich.table import Table
 
@@ -114,14 +115,16 @@ def show(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> N
     encoding = console.encoding
     title, headers = plain(title, encoding), [plain(h, encoding) for h in headers]
     rows = [[plain(str(c), encoding) for c in row] for row in rows]
-    if not console.is_terminal:  # a pipe, a log file: no width to fit, nothing wraps
-        console = Console(width=max(WIDTH, natural_width(headers, rows)))
-    table = Table(title=title, title_justify="left", safe_box=True)
-    for i, header in enumerate(headers):
-        table.add_column(header, justify="left" if i == 0 else "right", no_wrap=True)
-    for row in rows:
-        table.add_row(*row)
-    if natural_width(headers, rows) <= console.width:
+    widths = column_widths(headers, rows)
+    needed = sum(widths) + 3 * len(widths) + 1  # cells, padding and borders
+    if not console.is_terminal:  # a pipe, a log file: no width to fit
+        console = Console(width=max(WIDTH, needed))
+    if needed <= console.width:
+        table = Table(title=title, title_justify="left", safe_box=True)
+        for i, (header, width) in enumerate(zip(headers, widths, strict=True)):
+            table.add_column(header, justify="left" if i == 0 else "right", width=width)
+        for row in rows:
+            table.add_row(*row)
         console.print(table)
         return
     console.print(title, highlight=False, soft_wrap=True)
