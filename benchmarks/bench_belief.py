@@ -31,7 +31,8 @@ import sys, time
 import numpy as np
 from anonloc_env import make_config
 from agents.vec import AnonLocVecEnv
-n, copies, clutter, seconds = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", float(sys.argv[4])
+n, copies, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[4])
+clutter = sys.argv[3] == "1"
 camera = {"p_miss": 0.08, "false_positives": 2.0} if clutter else {}
 vec = AnonLocVecEnv(make_config(n_robots=n, camera=camera), n_envs=copies, reward="team")
 vec.seed(0)
@@ -86,10 +87,10 @@ def main() -> None:
             ratio = statistics.median(
                 b / a for a, b in zip(rates["old"], rates["new"], strict=True)
             )
+            old, new = (statistics.median(rates[side]) for side in ("old", "new"))
             print(
                 f"| {n} | {copies} | {'8 % misses, 2 FP' if clutter else 'none'} "
-                f"| {statistics.median(rates['old']):,.0f} | {statistics.median(rates['new']):,.0f} "
-                f"| {ratio:.2f}x |",
+                f"| {old:,.0f} | {new:,.0f} | {ratio:.2f}x |",
                 flush=True,
             )
 
