@@ -21,7 +21,8 @@ from baselines.active import (
 from baselines.excitations import DistinctMotion, SwarmDuty
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, PictureRecord, run_episode
-from baselines.scoring import bootstrap_mean, pictures_to_identify, summarize
+from baselines.scoring import pictures_to_identify, summarize
+from baselines.statistics import bootstrap_mean
 
 
 def _config(n: int = 10) -> anonloc_env.EnvConfig:
@@ -79,6 +80,8 @@ def test_summary_counts_and_interval() -> None:
     assert s.energy.mean == 2.0
     # Every episode: the one that never got there counts at one past its last picture (1).
     assert s.pictures_all.mean == (1 + 2 + 3 + 1) / 4
+    # Kaplan-Meier: events at 1, 2, 3, one censored at 0 (its last picture): S(2) = 1/3.
+    assert (s.median.median, s.median.reached, s.median.episodes) == (2.0, 3, 4)
     assert bootstrap_mean([4.0, 4.0]).low == 4.0
 
 
