@@ -102,7 +102,11 @@ class Team:
                 f"a team of {self.n} robots was given {len(observations)} observations: build "
                 "it for the env it runs in (baselines.make_team(name, env))"
             )
-        step = read_step(observations)
+        return self.take(read_step(observations))
+
+    def take(self, step: Step) -> Step:
+        """:meth:`observe` for a step already gathered (``AnonLocEnv.step_arrays``'s ``seen``:
+        the same bits, without the per-robot dicts); returns ``step``."""
         interval = self.log.observe(step)
         if step.new_picture:
             first = self.pictures_seen == 0
