@@ -53,23 +53,32 @@ def _eval(agent: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[st
 def test_eval_runs_again_when_the_runs_recorded_condition_changes(tmp_path: Path) -> None:
     run = _run_folder(tmp_path, {"condition": "free"})
     out = tmp_path / "s.csv"
-    first = _eval(run, out)
+    first = _eval(run, out, "-q")
     assert first.returncode == 0, first.stderr
     free = out.read_text()
-    # one output, one label and one counting (first-hour friction 4)
-    assert "eval: success at each robot's first decision" in first.stdout
-    assert "bench" not in first.stdout + first.stderr
-    rows = read_csv(out)
-    correct = np.array([json.loads(r["correct_by_picture"]) for r in rows])
-    first_all = int(np.flatnonzero(correct.all(axis=0))[0])  # 0: the picture at reset
-    shown = out.with_suffix(".md").read_text().split("## Pictures until 99 %")[1]
-    assert f"| agent | default | 1 | 100.0 % | {first_all + 1:.3g} [" in shown
     (run / "config.json").write_text(json.dumps({"train": {"condition": "swarm"}}))
     second = _eval(run, out, "-q")
     assert second.returncode == 0, second.stderr
     assert "(1 episodes executed, 0 reused)" in second.stdout, second.stdout  # not 0 executed
     assert out.read_text() != free  # swarm duty moves the robots otherwise
     assert read_csv(out)[0]["policy"] == "agent"
+
+
+def test_eval_output_has_one_label_and_counts_pictures_one_way(tmp_path: Path) -> None:
+    out = tmp_path / "e.csv"
+    done = _eval(BUNDLED, out)
+    assert done.returncode == 0, done.stderr
+    assert "eval: success at each robot's first decision" in done.stdout
+    assert "bench" not in done.stdout + done.stderr  # the progress line too
+    rows = read_csv(out)
+    correct = np.array([json.loads(r["correct_by_picture"]) for r in rows])
+    first_all = int(np.flatnonzero(correct.all(axis=0))[0])  # 0: the picture at reset
+    shown = out.with_suffix(".md").read_text().split("## Pictures until 99 %")[1]
+    row = next(line for line in shown.splitlines() if line.startswith("| agent |"))
+    censored_mean = row.split(" | ")[4]
+    # pictures seen, the one at reset counted as 1: as "pictures to decision" counts
+    assert censored_mean.startswith(f"{first_all + 1:.3g} "), (row, first_all)
+    assert min(int(r["pictures_to_decision"]) for r in rows) >= 1
 
 
 def test_a_garbage_weights_member_is_one_message_naming_it_without_unsafe_advice(
