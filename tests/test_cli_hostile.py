@@ -246,7 +246,8 @@ def test_printed_tables_never_wrap_a_cell(tmp_path: Path) -> None:
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     body = [line for line in result.output.splitlines() if line[:1] == "│"]
-    assert [line.split()[1] for line in body] == ["bayes", "motion"]  # one line per row
+    # both tables (success, pictures to 99 %): one line per row
+    assert [line.split()[1] for line in body] == ["bayes", "motion", "bayes", "motion"]
     assert "100.0 % [51.0, 100.0] (4/4)" in body[0]
 
 
