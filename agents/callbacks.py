@@ -75,8 +75,8 @@ BAR_FORMAT = (
 )
 #: Printed once above the bar: what its figures mean.
 LEGEND = (
-    "train: ret = mean return of the latest training episodes; id = robots identified at the end "
-    "of the evaluation episodes; pic99 = pictures to 99 % identified (censored mean)"
+    "train: ret = mean return of the latest training episodes; id = robots identified\n"
+    "at the end of the evaluation episodes; pic99 = pictures to 99 % (censored mean)"
 )
 
 
