@@ -70,9 +70,7 @@ class AtomicCheckpoint(CheckpointCallback):
 
 
 #: The training bar on a terminal: the figures before any cut, so that 80 columns hold them all.
-BAR_FORMAT = (
-    "{desc} {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}] {postfix}"
-)
+BAR_FORMAT = "{desc} {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}]{postfix}"
 #: Printed once above the bar: what its figures mean.
 LEGEND = (
     "train: ret = mean return of the latest training episodes; id = robots identified\n"
@@ -95,11 +93,12 @@ class StepProgress(BaseCallback):
 
         from anonloc_env._progress import progress_bar
 
-        label = "train" + ("" if self.minutes is None else f" (<= {self.minutes:g} min)")
         print(LEGEND, file=sys.stderr, flush=True)
+        if self.minutes is not None:
+            print(f"train: this call stops after {self.minutes:g} min", file=sys.stderr)
         self._bar = progress_bar(
             self.total,
-            label,
+            "train",
             initial=min(self.already, self.total),
             unit="step",
             unit_scale=True,

@@ -58,7 +58,7 @@ def test_train_in_an_80_column_terminal_shows_its_figures_and_how_it_ended(
     )  # fmt: skip
     assert code == 0, text
     drawn = [re.sub(r"\x1b\[[0-9;]*[A-Za-z]", "", s).rstrip() for s in re.split(r"[\r\n]", text)]
-    shown = [s for s in drawn if s.startswith(("train", "at the end"))]  # legend and bar
+    shown = [s for s in drawn if s.startswith(("train ", "train:", "at the end"))]  # the bar
     assert len(shown) > 3, text
     assert max(len(s) for s in shown) <= 80, max(shown, key=len)
     figures = [s for s in drawn if re.search(r"ret=\S+ id=\d+% pic99=\d+\.\d\d$", s)]
