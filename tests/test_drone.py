@@ -186,3 +186,40 @@ def test_registration_without_landmarks_follows_the_camera() -> None:
     # The first interval has nothing to predict the robots' motion with: from the second on,
     # their standing still is known.
     assert max(registered_moves[1:]) < 1.0
+
+
+def test_landmark_path_recovers_a_known_pose_from_a_rendered_image() -> None:
+    """A rendered picture from a known (windy) pose: the landmarks' corners give the camera's
+    homography to a few hundredths of a pixel over the arena, and the robots' rows land where the
+    camera at its set point would have seen them."""
+    pytest.importorskip("cv2")
+    from anonloc_env.images import ImageCamera, landmark_pose
+
+    arena = (3.0, 3.0)
+    config = anonloc_env.make_config(
+        "drone-windy",
+        n_robots=9,
+        arena_size=arena,
+        camera={"source": "image", "landmarks": border_landmarks(arena)},
+    )
+    camera = Camera(config)
+    pose = set_point(config) + np.array([0.2, -0.15, 0.1, math.radians(3.0), 0.01, -0.01])
+    camera.move_to(pose)
+    source = ImageCamera(config, camera)
+    rng = np.random.default_rng(0)
+    poses = np.array([[0.7 + 0.8 * (i % 3), 0.7 + 0.8 * (i // 3), 0.3 * i] for i in range(9)])
+    picture = source.take(poses, rng, 0.0, 0)
+    found, _, estimated = landmark_pose(
+        config, source.frame, *source.detector.markers(source.last_image)
+    )
+    assert len(found) == len(config.camera.landmarks)
+    grid = np.stack(np.meshgrid(np.linspace(0, 3, 7), np.linspace(0, 3, 7)), -1).reshape(-1, 2)
+    truth = Camera(config)
+    truth.move_to(pose)
+    fitted = Camera(config)
+    fitted.homography, fitted.inverse = estimated, np.linalg.inv(estimated)
+    assert np.abs(fitted.project(grid) - truth.project(grid)).max() < 0.1
+    seen = picture.true_index >= 0
+    assert seen.all()
+    at_set_point = Camera(config).project(poses[:, :2])
+    np.testing.assert_allclose(picture.detections[picture.true_index, :2], at_set_point, atol=0.1)

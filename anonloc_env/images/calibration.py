@@ -20,7 +20,7 @@ import numpy as np
 
 from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
-from anonloc_env.images._cv import import_cv2
+from anonloc_env.images.pose import estimate_homography
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,26 +51,6 @@ class CalibrationResult:
     scale_u_range: tuple[tuple[float, float], tuple[float, float]]
     perspective: tuple[float, float]
     tilt_deg: tuple[float, float]
-
-
-def estimate_homography(world_xy: np.ndarray, image_uv: np.ndarray) -> np.ndarray:
-    """The ``(3, 3)`` homography from ground points ``(M, 2)`` (m) to their image points
-    ``(M, 2)`` (image units), least squares, M >= 4."""
-    if len(world_xy) < 4 or len(world_xy) != len(image_uv):
-        raise ValueError(
-            f"need at least 4 matching points, got {len(world_xy)} and {len(image_uv)}"
-        )
-    if not (np.isfinite(world_xy).all() and np.isfinite(image_uv).all()):
-        raise ValueError("the points must be finite numbers (a NaN or inf gives a NaN homography)")
-    cv2 = import_cv2()
-    h, _ = cv2.findHomography(
-        np.asarray(world_xy, np.float64).reshape(-1, 1, 2),
-        np.asarray(image_uv, np.float64).reshape(-1, 1, 2),
-        0,
-    )
-    if h is None:
-        raise ValueError("the points are degenerate (collinear?): no homography fits them")
-    return np.asarray(h, dtype=np.float64)
 
 
 def calibrate(
