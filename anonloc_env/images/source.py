@@ -3,8 +3,9 @@
 :class:`ImageCamera` renders the arena (:class:`~anonloc_env.images.renderer.ImageRenderer`),
 detects the markers (:class:`~anonloc_env.images.detector.MarkerDetector`) and returns the rows as
 a :class:`~anonloc_env.camera.Picture`, shuffled; with ground landmarks, rectified into the set
-point's frame through the homography their corners give (:func:`~anonloc_env.images.landmark_pose`). Robots whose marker is cut by the image border,
-hidden by another robot or not decoded are missing; a detection that lies near no robot is a
+point's frame through the homography their corners give
+(:func:`~anonloc_env.images.pose.landmark_pose`). Robots whose marker is cut by the image
+border, hidden by another robot or not decoded are missing; a detection that lies near no robot is a
 false positive. The ground truth ``true_index`` matches each robot to the detection nearest its
 projected centre, within a quarter of a marker.
 """
