@@ -33,6 +33,18 @@ REID_PICTURES = 5
 BLACKOUT_START = 5.0
 
 
+#: The ``drift`` sweep's camera besides its drift: the ``drone-hover`` preset's wobbles and gimbal
+#: (plain data here: the CLI's help must not import the env).
+DRONE_WOBBLES = {
+    "drift_time": 5.0,
+    "height_wobble": 0.033,
+    "yaw_wobble_deg": 0.5,
+    "tilt_wobble_deg": 1.0,
+    "wobble_time": 1.0,
+    "gimbal_bandwidth": 100.0,
+}
+
+
 @dataclass(frozen=True)
 class Variant:
     """A policy as a sweep plots it.
@@ -135,6 +147,12 @@ SWEEPS: dict[str, Sweep] = {
             log_x=True,
         ),
         Sweep(
+            "drift",
+            "A camera on a hovering drone: horizontal drift (drone-hover's wobbles, no landmarks)",
+            "camera drift std (m, per axis; correlation time 5 s)",
+            (0, 0.025, 0.05, 0.1, 0.2, 0.4),
+        ),
+        Sweep(
             "blackout",
             f"Identified again after a blackout from t = {BLACKOUT_START:g} s (5 % odometry noise)",
             "blackout duration (s)",
@@ -164,6 +182,8 @@ def overrides(sweep: Sweep, x: float) -> dict[str, Any]:
         out["camera"] = {"p_miss": float(x)}
     elif sweep.name == "false-positives":
         out["camera"] = {"false_positives": float(x)}
+    elif sweep.name == "drift":
+        out["camera"] = {**DRONE_WOBBLES, "drift": float(x)} if x > 0 else {}
     elif sweep.name == "blackout":
         extra_time = float(x)
         out["robot"] = {"odometry_noise": 0.05}

@@ -96,9 +96,11 @@ def _pose_error(env: Any, team: Any, state: dict[str, Any]) -> float | None:
     return float(np.sqrt(np.mean(change**2)))
 
 
-def run_condition(preset: str, n: int, landmarks: bool, policy: str, episodes: int) -> Tally:
+def run_condition(
+    preset: str, n: int, landmarks: bool, policy: str, episodes: int, source: str = "geometric"
+) -> Tally:
     """Play ``episodes`` episodes of one condition."""
-    config = condition_config(preset, n, landmarks)
+    config = condition_config(preset, n, landmarks, source)
     tally = Tally()
     start = time.perf_counter()
     for k in range(episodes):
@@ -145,6 +147,32 @@ def tally_episode(env: Any, team: Any, seed: int, tally: Tally) -> None:
     tally.pictures.append(float(first if first is not None else len(correct)))
 
 
+def worst_step(n: int, pictures: int) -> tuple[float, float]:
+    """The identifier's slowest and median picture update (s) at ``n`` robots under
+    ``drone-hover`` without landmarks (registration included), ``distinct`` motion."""
+    config = condition_config("drone-hover", n, False)
+    env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
+    team = baselines.make_team("bayes", env, excitation="distinct")
+    identifier = team.localizer.identifier
+    times: list[float] = []
+    update = identifier.update
+
+    def timed(*args: Any, **kwargs: Any) -> None:
+        start = time.perf_counter()
+        update(*args, **kwargs)
+        times.append(time.perf_counter() - start)
+
+    identifier.update = timed
+    tally_pictures = Tally()
+    global PICTURES
+    PICTURES, saved = pictures, PICTURES
+    try:
+        tally_episode(env, team, SEED0, tally_pictures)
+    finally:
+        PICTURES = saved
+    return max(times), float(np.median(times))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, required=True)
@@ -152,12 +180,22 @@ def main() -> None:
     parser.add_argument("--policy", action="append", default=None)
     parser.add_argument("--preset", action="append", default=None)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--source", default="geometric", choices=["geometric", "image"])
+    parser.add_argument("--landmarks", choices=["both", "no", "yes"], default="both")
+    parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
     args = parser.parse_args()
+    if args.worst_step:
+        worst, median = worst_step(args.n, 12)
+        row = {"n": args.n, "worst_step_s": worst, "median_step_s": median}
+        print(json.dumps(row), flush=True)
+        args.out.write_text(json.dumps([row], indent=1))
+        return
     rows = []
+    choices = {"both": (False, True), "no": (False,), "yes": (True,)}[args.landmarks]
     for policy in args.policy or ["bayes", "agent"]:
         for preset in args.preset or ["default", "drone-hover", "drone-windy"]:
-            for landmarks in (False, True):
-                t = run_condition(preset, args.n, landmarks, policy, args.episodes)
+            for landmarks in choices:
+                t = run_condition(preset, args.n, landmarks, policy, args.episodes, args.source)
                 mean = bootstrap_mean(t.pictures)
                 pose = float(np.sqrt(np.mean(np.square(t.pose_errors)))) if t.pose_errors else 0.0
                 row = {
@@ -165,6 +203,7 @@ def main() -> None:
                     "policy": policy,
                     "camera": preset,
                     "landmarks": landmarks,
+                    "source": args.source,
                     "episodes": args.episodes,
                     "pictures_to_99": [mean.mean, mean.low, mean.high],
                     "wrong": [t.wrong, t.decided],

@@ -270,3 +270,13 @@ def test_identifier_reaches_99_percent_under_drone_hover_without_landmarks() -> 
                 decided += 1
                 wrong += record.estimate != record.true_index
     assert wrong <= 0.01 * decided
+
+
+def test_drift_sweep_matches_the_hover_preset() -> None:
+    """The study's drift sweep moves only the drift away from the drone-hover preset."""
+    from anonloc_cli.sweeps import SWEEPS, overrides
+
+    hover = anonloc_env.make_config("drone-hover").camera
+    point = overrides(SWEEPS["drift"], hover.drift)["camera"]
+    assert {k: getattr(hover, k) for k in point} == point
+    assert overrides(SWEEPS["drift"], 0.0).get("camera") == {}
