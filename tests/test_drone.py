@@ -280,3 +280,15 @@ def test_drift_sweep_matches_the_hover_preset() -> None:
     point = overrides(SWEEPS["drift"], hover.drift)["camera"]
     assert {k: getattr(hover, k) for k in point} == point
     assert overrides(SWEEPS["drift"], 0.0).get("camera") == {}
+
+
+def test_faithful_motion_survives_a_picture_the_robots_drifted_out_of() -> None:
+    """Under a windy drone a picture may hold no robot; the faithful method (as published)
+    must decide nothing from it rather than fail."""
+    import baselines
+    from baselines.runner import run_episode
+
+    env = anonloc_env.AnonLocEnv(anonloc_env.make_config("drone-windy"), reward_fn=EnergyCost())
+    team = baselines.make_team("motion", env, mode="faithful")
+    result = run_episode(env, team, seed=19, max_pictures=10)
+    assert len(result.records) == 40
