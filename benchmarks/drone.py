@@ -147,10 +147,10 @@ def tally_episode(env: Any, team: Any, seed: int, tally: Tally) -> None:
     tally.pictures.append(float(first if first is not None else len(correct)))
 
 
-def worst_step(n: int, pictures: int) -> tuple[float, float]:
-    """The identifier's slowest and median picture update (s) at ``n`` robots under
-    ``drone-hover`` without landmarks (registration included), ``distinct`` motion."""
-    config = condition_config("drone-hover", n, False)
+def worst_step(n: int, pictures: int, preset: str = "drone-hover") -> tuple[float, float]:
+    """The identifier's slowest and median picture update (s) at ``n`` robots under ``preset``
+    without landmarks (registration included), ``distinct`` motion."""
+    config = condition_config(preset, n, False)
     env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
     team = baselines.make_team("bayes", env, excitation="distinct")
     identifier = team.localizer.identifier
@@ -173,22 +173,62 @@ def worst_step(n: int, pictures: int) -> tuple[float, float]:
     return max(times), float(np.median(times))
 
 
+def table(files: list[Path]) -> str:
+    """The docs' table of the rows in ``files`` (JSON written by this script), each condition
+    beside the static camera of the same N, policy and landmarks."""
+    rows = [row for f in files for row in json.loads(f.read_text())]
+    static = {
+        (r["n"], r["policy"], r["landmarks"]): r["pictures_to_99"][0]
+        for r in rows
+        if r["camera"] == "default"
+    }
+    lines = [
+        "| N | policy | camera | landmarks | episodes | pictures to 99 % [95 % CI] | vs static "
+        "| wrong / confident decisions | pose error, px: RMS / p95 |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        mean, low, high = r["pictures_to_99"]
+        base = static.get((r["n"], r["policy"], r["landmarks"]))
+        delta = "" if base is None or r["camera"] == "default" else f"{mean - base:+.2f}"
+        wrong, decided = r["wrong"]
+        share = 100.0 * wrong / decided if decided else 0.0
+        pose = (
+            f"{r['pose_error_rms']:.2f} / {r['pose_error_p95']:.2f}" if r["pose_error_rms"] else "-"
+        )
+        lines.append(
+            f"| {r['n']} | {r['policy']} | {r['camera']} | {'yes' if r['landmarks'] else 'no'} "
+            f"| {r['episodes']} | {mean:.2f} [{low:.2f}, {high:.2f}] | {delta} "
+            f"| {wrong} / {decided} ({share:.2f} %) | {pose} |"
+        )
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--n", type=int, required=True)
+    parser.add_argument("--n", type=int, default=10)
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--policy", action="append", default=None)
     parser.add_argument("--preset", action="append", default=None)
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=Path)
     parser.add_argument("--source", default="geometric", choices=["geometric", "image"])
     parser.add_argument("--landmarks", choices=["both", "no", "yes"], default="both")
     parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
+    parser.add_argument("--table", type=Path, nargs="*", help="print the docs' table of files")
     args = parser.parse_args()
+    if args.table:
+        print(table(args.table))
+        return
     if args.worst_step:
-        worst, median = worst_step(args.n, 12)
-        row = {"n": args.n, "worst_step_s": worst, "median_step_s": median}
-        print(json.dumps(row), flush=True)
-        args.out.write_text(json.dumps([row], indent=1))
+        rows = []
+        for rep in range(2):  # the fixed camera and the drone alternated in one process
+            for preset in ("default", "drone-hover"):
+                worst, median = worst_step(args.n, 12, preset)
+                row = {"n": args.n, "camera": preset, "rep": rep, "worst_step_s": worst}
+                row["median_step_s"] = median
+                rows.append(row)
+                print(json.dumps(row), flush=True)
+        args.out.write_text(json.dumps(rows, indent=1))
         return
     rows = []
     choices = {"both": (False, True), "no": (False,), "yes": (True,)}[args.landmarks]
