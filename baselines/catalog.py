@@ -59,11 +59,13 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
     "swarm": Entry("baselines.excitations:SwarmMotion"),
     "distinct": Entry("baselines.excitations:DistinctMotion"),
     "greedy": Entry("baselines.active:GreedyIdentification"),
+    "gaps": Entry("baselines.excitations:GapSeeking"),
 }
 """The excitations by name. ``random`` is the paper's random motion (the excitation of the
 ``motion`` localizer); ``swarm`` is ``SwarmMotion`` with its defaults (jitter ``SWARM_JITTER``,
 common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
-``baselines.active.GreedyIdentification``."""
+``baselines.active.GreedyIdentification``; ``gaps`` is ``GapSeeking``, the crowd-aware one
+(``docs/crowds.md``)."""
 
 RENAMED = {"motion": "random"}
 """Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.
