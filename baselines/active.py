@@ -43,67 +43,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from anonloc_env.identify import SensorModel, ring_loglik
-from baselines.excitations import BackOff, DistinctSettings, Excitation, check_command_box
+from baselines.excitations import BackOff, Excitation
+from baselines.excitations.candidates import GreedySettings, candidate_commands
 from baselines.steps import BeliefView, Step
-
-
-@dataclass
-class GreedySettings:
-    """Settings of :class:`GreedyIdentification`, all rates in SI units.
-
-    Attributes:
-        candidates: number of candidate commands drawn per robot and picture, >= 1.
-        speed: range of candidate forward speeds (m/s). On swarm duty, deviations are drawn in
-            ``[-speed[1], speed[1]]``.
-        turn: largest candidate turn rate (rad/s); rates are uniform in ``[-turn, turn]``.
-        others: the other robots' commands ``(v, w)`` (m/s, rad/s), equally likely; ``None``: a
-            3 x 5 grid over the candidates' box (the other robots are like this one).
-        hypotheses: most rows kept as hypotheses per robot, >= 1.
-        floor: rows below this belief are no hypothesis, in [0, 1).
-        ring_samples: points per ring when the heading is unknown, >= 1.
-        energy_weight: nats of expected entropy worth one metre of wheel travel, >= 0; a small
-            value breaks ties (a robot sure of itself drives the cheapest candidate).
-        back: the back-off after a bump (only ``back_speed``, ``back_time`` and ``turn`` are
-            used).
-    """
-
-    candidates: int = 8
-    speed: tuple[float, float] = (0.1, 0.5)
-    turn: float = 1.0
-    others: tuple[tuple[float, float], ...] | None = None
-    hypotheses: int = 6
-    floor: float = 1e-3
-    ring_samples: int = 8
-    energy_weight: float = 0.1
-    back: DistinctSettings = field(default_factory=DistinctSettings)
-
-    def __post_init__(self) -> None:
-        for name in ("candidates", "hypotheses", "ring_samples"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        check_command_box(self.speed, self.turn)
-        if not 0.0 <= self.floor < 1.0:
-            raise ValueError(f"floor must be in [0, 1), got {self.floor}")
-        if not self.energy_weight >= 0.0:
-            raise ValueError(f"energy_weight must be >= 0 nats/m, got {self.energy_weight}")
-        if self.others is not None and len(self.others) == 0:
-            raise ValueError("others must hold at least one command (v, w), or be None")
-
-    def other_commands(self, deviation: bool) -> np.ndarray:
-        """``(S, 2)`` the other robots' commands (deviations on swarm duty)."""
-        if self.others is not None:
-            return np.asarray(self.others, dtype=np.float64).reshape(-1, 2)
-        low = -self.speed[1] if deviation else self.speed[0]
-        v, w = np.meshgrid(
-            np.linspace(low, self.speed[1], 3), np.linspace(-self.turn, self.turn, 5)
-        )
-        return np.stack([v.ravel(), w.ravel()], axis=1)
 
 
 def unicycle(v: np.ndarray, w: np.ndarray, duration: float) -> np.ndarray:
@@ -194,6 +141,11 @@ def expected_entropy(
         others: ``(R, S, 2)`` the other robots' possible displacements in their frames (m).
         geo: scale, noise and timing.
         ring_samples: points per ring where the heading is unknown.
+
+    Where every heading is known (the detector measures them), the rings are never used and
+    every landing point is the predicted one, so the densities are computed once instead of
+    ``ring_samples`` times (:func:`_densities_known`); the result is the same to the bit as the
+    general path's (:func:`_densities`), which ``tests/test_active.py`` checks.
     """
     s = geo.scale
     rho = s * np.hypot(own[..., 0], own[..., 1])  # (R, C)
@@ -207,6 +159,36 @@ def expected_entropy(
     cos, sin = np.cos(hyp.theta)[:, :, None], np.sin(hyp.theta)[:, :, None]
     dx, dy = s * own[:, None, :, 0], s * own[:, None, :, 1]
     mu = hyp.pos[:, :, None, :] + np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
+    geometry = (rho, var, mu, s)
+    if hyp.known.all():
+        collide, mimic, peak = _densities_known(hyp, own, others, geometry, ring_samples)
+    else:
+        collide, mimic, peak = _densities(hyp, own, others, geometry, ring_samples)
+    base = geo.clutter / geo.p_detect
+    ratio = (base + collide + mimic[:, None]) / (base + peak[:, :, None])  # (R, K*, K', C)
+    k = hyp.weight.shape[1]
+    eye = np.eye(k, dtype=bool)[None, :, :, None]
+    ratio = np.where(eye, 1.0, ratio)
+    post = hyp.weight[:, None, :, None] * ratio
+    post /= np.maximum(post.sum(axis=2, keepdims=True), 1e-300)
+    entropy = -(post * np.log(np.maximum(post, 1e-300))).sum(axis=2)  # (R, K*, C)
+    return (hyp.weight[:, :, None] * entropy).sum(axis=1)
+
+
+Densities = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _densities(
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    ring_samples: int,
+) -> Densities:
+    """The general path: ``collide`` ``(R, K*, K', C)``, ``mimic`` ``(R, K', C)`` and ``peak``
+    ``(R, K*, C)`` (see the module doc), any heading known or not."""
+    rho, var, mu, s = geometry
+    known = hyp.known[:, :, None]  # (R, K, 1)
     # Where I land if I am h*: the point, or ring_samples points on the ring.
     phi = 2.0 * math.pi * (np.arange(ring_samples) + 0.5) / ring_samples
     circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (M, 2)
@@ -223,9 +205,7 @@ def expected_entropy(
     collide = np.where(known[:, None, :, :, None], gauss, ring).mean(axis=-1)  # (R, K*, K', C)
     # Density of "I am h'" where the robot truly at h' goes: (R, K', C).
     other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R, S)
-    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
     vs = var[..., None]
-    mimic_known = np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)
     mimic_ring = np.exp(
         ring_loglik(
             np.broadcast_to(other_len[:, None, None, :], vs.shape[:-1] + other_len.shape[-1:]),
@@ -233,20 +213,47 @@ def expected_entropy(
             vs,
         )
     )
-    mimic = np.where(known, mimic_known.mean(axis=-1), mimic_ring.mean(axis=-1))
+    mimic = np.where(known, _mimic_known(own, others, var, s), mimic_ring.mean(axis=-1))
     # My own detection's density under the truth: (R, K*, C).
     peak = np.where(
         known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
     )
-    base = geo.clutter / geo.p_detect
-    ratio = (base + collide + mimic[:, None]) / (base + peak[:, :, None])  # (R, K*, K', C)
-    k = hyp.weight.shape[1]
-    eye = np.eye(k, dtype=bool)[None, :, :, None]
-    ratio = np.where(eye, 1.0, ratio)
-    post = hyp.weight[:, None, :, None] * ratio
-    post /= np.maximum(post.sum(axis=2, keepdims=True), 1e-300)
-    entropy = -(post * np.log(np.maximum(post, 1e-300))).sum(axis=2)  # (R, K*, C)
-    return (hyp.weight[:, :, None] * entropy).sum(axis=1)
+    return collide, mimic, peak
+
+
+def _densities_known(
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    ring_samples: int,
+) -> Densities:
+    """:func:`_densities` where every heading is known: each landing point is ``mu``, so each
+    density is computed once and averaged as the general path averages its ``ring_samples``
+    equal values (the same sum, so the same bits)."""
+    _, var, mu, s = geometry
+    v2 = var[:, None]  # (R, 1, K', C)
+    gx = mu[:, :, None, :, 0] - mu[:, None, :, :, 0]
+    gy = mu[:, :, None, :, 1] - mu[:, None, :, :, 1]
+    gauss = np.exp(-0.5 * (gx**2 + gy**2) / v2) / (2.0 * math.pi * v2)  # (R, K*, K', C)
+    collide = _mean_of_equal(gauss, ring_samples)
+    mimic = _mimic_known(own, others, var, s)
+    return collide, mimic, 1.0 / (2.0 * math.pi * var)
+
+
+def _mimic_known(own: np.ndarray, others: np.ndarray, var: np.ndarray, s: float) -> np.ndarray:
+    """``(R, K', C)`` density of "I am h'" where the robot at h' goes, its heading known."""
+    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
+    vs = var[..., None]
+    return (np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)).mean(axis=-1)
+
+
+def _mean_of_equal(values: np.ndarray, count: int) -> np.ndarray:
+    """The mean of ``count`` copies of each value, summed as numpy sums them (exact, and thus
+    ``values`` itself, when ``count`` is a power of two)."""
+    if count & (count - 1) == 0:
+        return values
+    return np.broadcast_to(values[..., None], (*values.shape, count)).mean(axis=-1)
 
 
 class GreedyIdentification(Excitation):
@@ -360,12 +367,7 @@ class GreedyIdentification(Excitation):
     def _candidates(self, deviation: bool) -> np.ndarray:
         """``(R, C, 2)`` candidate commands, each robot from its own generator."""
         st = self.settings
-        low = -st.speed[1] if deviation else st.speed[0]
-        out = np.empty((self.n, st.candidates, 2))
-        for i, rng in enumerate(self.rngs):
-            out[i, :, 0] = rng.uniform(low, st.speed[1], st.candidates)
-            out[i, :, 1] = rng.uniform(-st.turn, st.turn, st.candidates)
-        return out
+        return candidate_commands(self.rngs, st.candidates, st.speed, st.turn, deviation)
 
     def score(self) -> CandidateSet | None:
         """Draw every robot's candidate commands for the interval now starting (each robot from

@@ -60,11 +60,14 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
     "distinct": Entry("baselines.excitations:DistinctMotion"),
     "greedy": Entry("baselines.active:GreedyIdentification"),
     "gaps": Entry("baselines.excitations:GapSeeking"),
+    "uniform": Entry("baselines.excitations.uniform:UniformChoice"),
 }
 """The excitations by name. ``random`` is the paper's random motion (the excitation of the
 ``motion`` localizer); ``swarm`` is ``SwarmMotion`` with its defaults (jitter ``SWARM_JITTER``,
 common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
-``baselines.active.GreedyIdentification``; ``gaps`` is ``GapSeeking``, the crowd-aware one
+``baselines.active.GreedyIdentification``; ``uniform`` is
+``baselines.excitations.uniform.UniformChoice`` (chance among the learned agent's candidates,
+its no-learning ablation); ``gaps`` is ``GapSeeking``, the crowd-aware one
 (``docs/crowds.md``)."""
 
 RENAMED = {"motion": "random"}

@@ -9,6 +9,7 @@ import pytest
 
 import anonloc_env
 import baselines
+from baselines import active
 from baselines.active import (
     GreedyIdentification,
     GreedySettings,
@@ -20,7 +21,8 @@ from baselines.active import (
 from baselines.excitations import DistinctMotion, SwarmDuty
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, PictureRecord, run_episode
-from baselines.scoring import bootstrap_mean, pictures_to_identify, summarize
+from baselines.scoring import pictures_to_identify, summarize
+from baselines.statistics import bootstrap_mean
 
 
 def _config(n: int = 10) -> anonloc_env.EnvConfig:
@@ -78,6 +80,8 @@ def test_summary_counts_and_interval() -> None:
     assert s.energy.mean == 2.0
     # Every episode: the one that never got there counts at one past its last picture (1).
     assert s.pictures_all.mean == (1 + 2 + 3 + 1) / 4
+    # Kaplan-Meier: events at 1, 2, 3, one censored at 0 (its last picture): S(2) = 1/3.
+    assert (s.median.median, s.median.reached, s.median.episodes) == (2.0, 3, 4)
     assert bootstrap_mean([4.0, 4.0]).low == 4.0
 
 
@@ -167,3 +171,29 @@ def test_works_as_swarm_deviation(name: str) -> None:
     if isinstance(own, GreedyIdentification):
         assert own.following
         assert np.all(np.abs(own.v) <= own.settings.speed[1] + 1e-12)
+
+
+@pytest.mark.parametrize("ring_samples", [8, 5])
+def test_known_headings_fast_path_equals_the_general_path(ring_samples: int) -> None:
+    """Where every heading is known, ``expected_entropy`` computes each density once instead of
+    on every ring point: the densities are the general path's to the bit."""
+    rng = np.random.default_rng(7)
+    r, k, c, s = 5, 6, 8, 15
+    weight = rng.random((r, k))
+    hyp = Hypotheses(
+        weight=weight / weight.sum(axis=1, keepdims=True),
+        pos=rng.uniform(0.0, 200.0, (r, k, 2)),
+        theta=rng.uniform(-math.pi, math.pi, (r, k)),
+        theta_var=rng.uniform(1e-4, 1e-2, (r, k)),
+        known=np.ones((r, k), bool),
+    )
+    own = unicycle(rng.uniform(0.1, 0.5, (r, c)), rng.uniform(-1, 1, (r, c)), 0.5)
+    others = unicycle(rng.uniform(0.1, 0.5, (1, s)), rng.uniform(-1, 1, (1, s)), 0.5)
+    rho = GEO.scale * np.hypot(own[..., 0], own[..., 1])
+    var = rng.uniform(1.0, 4.0, (r, k, c))
+    mu = hyp.pos[:, :, None, :] + rng.normal(0.0, 10.0, (r, k, c, 2))
+    geometry = (rho, var, mu, GEO.scale)
+    general = active._densities(hyp, own, others, geometry, ring_samples)
+    fast = active._densities_known(hyp, own, others, geometry, ring_samples)
+    for a, b in zip(general, fast, strict=True):
+        np.testing.assert_array_equal(np.broadcast_to(b, a.shape), a)

@@ -12,6 +12,11 @@ import numpy as np
 from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import CameraConfig, EnvConfig
+from anonloc_env.identify.camera_pose import (
+    RegistrationPrior,
+    registered_pixel_noise,
+    registration_prior,
+)
 from anonloc_env.identify.contact import CONTACT_BREAK, CROWD_PUSH_SHARE
 from anonloc_env.odometry import Interval
 
@@ -69,6 +74,10 @@ class SensorModel:
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
             default): never.
             ``from_config`` sets :data:`anonloc_env.identify.contact.CONTACT_BREAK`.
+        registration: the camera's motion when it moves and no landmarks register its pictures
+            (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
+            the set point's frame first, and ``from_config`` adds the registration's error to
+            ``pixel_noise``. ``None``: a fixed (or landmark-registered) camera.
     """
 
     scale: float | None
@@ -89,6 +98,7 @@ class SensorModel:
     others_turn: float = 0.0
     crowd_push_share: float | None = None
     contact_break: float = 0.0
+    registration: RegistrationPrior | None = None
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -148,7 +158,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
         scale_spread=camera.scale_spread,
-        pixel_noise=cam.pixel_noise,
+        pixel_noise=registered_pixel_noise(config, cam.pixel_noise),
         orientation=cam.orientation,
         orientation_noise=math.radians(cam.orientation_noise_deg),
         p_detect=1.0 - cam.p_miss,
@@ -163,6 +173,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         others_turn=OTHERS_TURN,
         crowd_push_share=CROWD_PUSH_SHARE,
         contact_break=CONTACT_BREAK,
+        registration=registration_prior(config),
     )
 
 
