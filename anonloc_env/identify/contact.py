@@ -23,7 +23,11 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   weight over the previous picture's rows, so an identity lost in a jam is found again and the
   belief stays below certainty while the robot is pressed.
 
-Robots that bump once (most contacts in open space) keep the model as it was.
+And for every robot, a heading learnt from a pushed first leg is uncertain by the push along the
+robot's side (:func:`first_heading_variance`), not by its average over two directions.
+
+Robots that bump once keep the model as it was but for that first leg. With
+``crowd_push_share=None`` the identifier is the one before issue 23, bit for bit.
 """
 
 from __future__ import annotations

@@ -242,7 +242,7 @@ class Child:
             geo.iso_var[which] / np.maximum(geo.r[which], 1e-12) ** 2 + geo.var_dphi[which]
         )
         pushed = np.flatnonzero(which & geo.pushed)
-        if len(pushed):
+        if len(pushed) and geo.model.crowd_push_share is not None:
             cov = geo.push_cov(pushed) * (geo.s[pushed] ** 2)[:, None, None]
             first_heading_variance(pushed, cov, geo.r[pushed], self.p_tt)
 
