@@ -266,8 +266,10 @@ def results(
     episodes: int,
     first_seed: int,
     extra: Mapping[str, Callable[[], Excitation]] | None = None,
+    json_path: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Every cell of the grid, on the same seeds for every excitation."""
+    """Every cell of the grid, on the same seeds for every excitation (written to ``json_path``
+    after every cell, if given)."""
     out = []
     for density in densities:
         for n in robots:
@@ -279,6 +281,8 @@ def results(
                 cell.update(density=density, n=n, excitation=name)
                 out.append(cell)
                 print(_line(cell), flush=True)
+                if json_path:
+                    write_json(json_path, out)
     return out
 
 
@@ -331,7 +335,11 @@ def load_recorded(path: str) -> tuple[EnvConfig, EpisodeResult]:
         pushed = bool(arrays["push"][k].any())
         intervals.append(
             Interval(
-                *(arrays[key][k] for key in ("d", "dphi", "path", "sum_ds2", "sum_dth2")),
+                d=arrays["d"][k],
+                dphi=arrays["dphi"][k],
+                path=arrays["path"][k],
+                sum_ds2=arrays["sum_ds2"][k],
+                sum_dth2=arrays["sum_dth2"][k],
                 push=arrays["push"][k] if pushed else None,
                 push_sum=arrays["push_sum"][k] if pushed else None,
             )
@@ -386,9 +394,8 @@ def main(argv: list[str] | None = None) -> None:
             "| robots/m² | N | excitation | pictures to 99 % | reached | wrong | fall after 95 % |"
         )
         print("|---|---|---|---|---|---|---|")
-        grid = results(args.densities, args.robots, names, args.episodes, args.first_seed, extra)
-        if args.json:
-            write_json(args.json, grid)
+        grid = (args.densities, args.robots, names, args.episodes, args.first_seed)
+        results(*grid, extra, args.json)
     elif args.command == "plot":
         from benchmarks.plot_crowds import plot
 
