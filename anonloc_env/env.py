@@ -16,6 +16,7 @@ from pettingzoo import ParallelEnv
 
 from anonloc_env.actions import check_action_array, stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture
+from anonloc_env.camera_motion import CameraMotion
 from anonloc_env.config import EnvConfig
 from anonloc_env.detection import detection_source
 from anonloc_env.geometry import wrap_angle
@@ -111,8 +112,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     `infos[agent]` holds ground truth about the newest picture, for scoring only: `true_index`
     (row of this robot in it, -1 if it was missed or no picture was taken yet), `pose` (the
     robot's true `(x, y, theta)` when it was taken, float64, m and rad; the pose at reset before
-    any picture) and `picture` (number of pictures taken so far). Every robot's current pose is
-    `env.state()`.
+    any picture), `picture` (number of pictures taken so far) and `camera_pose` (the camera's
+    true pose `(x, y, z, yaw, pitch, roll)` when it was taken, m and rad, read-only: it moves
+    with `camera.drift` and the wobbles, see `anonloc_env.camera_motion`). Every robot's current
+    pose is `env.state()`.
 
     ## Arguments
     `config` (an `EnvConfig`; `parallel_env` builds it from a preset and overrides),
@@ -158,6 +161,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
+        self.camera_motion = CameraMotion(self.config)
+        """The camera's pose over the episode (a drone's hover; fixed unless the config says)."""
         if detector is not None and not callable(getattr(detector, "take", None)):
             raise TypeError(
                 "detector must have a take(poses, rng, time, index) method returning a Picture "
@@ -282,6 +287,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.pictures_taken = 0
         self.picture = None
         self.guesses = {}
+        self.camera_motion.reset(rng)
+        self.camera.move_to(self.camera_motion.pose if self.camera_motion.moves else None)
         if self._maybe_take_picture(0.0) is None:
             self._update_info_templates()
         self.reward_fn.reset(self.config, rng, self.picture)
@@ -382,6 +389,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         if not self.schedule.take_now(time):
             return None
         assert self.world is not None
+        if self.camera_motion.moves:
+            self.camera.move_to(self.camera_motion.advance(time, self.rng))
         picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
         if picture.n_rows > self.capacity:
             raise ValueError(
@@ -407,8 +416,9 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         else:
             self._true_index = _frozen_int(np.full(self.config.n_robots, -1))
         rows = self._true_index.tolist()
+        camera_pose = self.camera_motion.pose
         self._info_templates = [
-            {"true_index": row, "pose": pose, "picture": count}
+            {"true_index": row, "pose": pose, "picture": count, "camera_pose": camera_pose}
             for row, pose in zip(rows, list(poses), strict=True)
         ]
 
