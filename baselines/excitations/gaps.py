@@ -21,7 +21,7 @@ Its heading is known from a detected heading, or else from its own last leg free
 between two pictures where it was sure of its row (the direction of its displacement in the
 arena against that of its odometry), carried on by its odometry's turns (a contact does not turn
 a robot). The picture is taken back to the arena through the camera the config describes, as
-:meth:`anonloc_env.identify.SensorModel.from_config` does.
+``anonloc_env.identify.SensorModel.from_config`` does.
 
 Commands stay in ``[-back_speed, speed[1]] x [-turn, turn]``; every random draw comes from the
 robot's own generator (``turn`` and ``speed`` drawn at every picture for every robot, the
