@@ -8,7 +8,8 @@ chose, joined to the robot by a red line; a robot whose guess is ``None`` (not d
 thin amber ring. A legend at the bottom says so, and the header gives the time the newest picture
 was taken (the crosses are where the robots were then, not where they are now). With the image
 source (``camera.source = "image"``) the camera's newest grayscale image is shown in the top-right
-corner (picture-in-picture).
+corner (picture-in-picture). A camera that moves (``camera.drift`` and the wobbles) has its
+footprint, the ground its field of view covered at the newest picture, drawn as a blue outline.
 
 Only the ``human`` mode opens a display; ``rgb_array`` draws off screen and never initialises SDL's
 video (so no display, and no message about one, is needed).
@@ -36,6 +37,7 @@ _RIGHT = (30, 160, 60)  # a right guess
 _WRONG = (210, 40, 40)  # a wrong guess
 _UNDECIDED = (230, 150, 0)  # no guess yet (amber)
 _DETECTION = (90, 90, 90)
+_FOOTPRINT = (60, 110, 220)  # the moving camera's field of view on the ground
 _TEXT = (20, 20, 20)
 
 
@@ -133,9 +135,12 @@ class Renderer:
             np.array([[0.0, 0.0], [width, 0.0], [width, height], [0, height]])
         )
         pg.draw.polygon(surface, (40, 40, 40), corners.tolist(), 2)
+        if self.config.camera.moves:  # the ground the moving camera saw at the newest picture
+            footprint = self._to_screen(self.camera.footprint())
+            pg.draw.polygon(surface, _FOOTPRINT, footprint.tolist(), 2)
         self._draw_robots(poses)
         if picture is not None and picture.n_rows > 0:
-            ground = self.camera.unproject(picture.detections[:, :2])
+            ground = self._ground(picture)
             screen = self._to_screen(ground)
             for x, y in screen:
                 self._cross(x, y)
@@ -154,6 +159,15 @@ class Renderer:
             self.clock.tick(self.config_fps())
             return None
         return np.transpose(pg.surfarray.array3d(surface), (1, 0, 2)).copy()
+
+    def _ground(self, picture: Picture) -> np.ndarray:
+        """The ground points of a picture's rows: through the camera's pose when it was taken,
+        or through its set point where ground landmarks rectified the rows into that frame."""
+        uv = picture.detections[:, :2]
+        if picture.homography is None:
+            return self.camera.unproject(uv)
+        h = np.column_stack([uv, np.ones(len(uv))]) @ np.linalg.inv(self.camera.set_point).T
+        return h[:, :2] / h[:, 2:3]
 
     def config_fps(self) -> int:
         """Frames per second of the human window (real time, capped at 60)."""

@@ -194,31 +194,83 @@ def _densities(
     circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (M, 2)
     ring_points = hyp.pos[:, :, None, None, :] + rho[:, None, :, None, None] * circle
     land = np.where(known[..., None, None], mu[:, :, :, None, :], ring_points)  # (R, K, C, M, 2)
-    # Density of "I am h'" at those points: (R, K*, K', C, M).
-    x = land[:, :, None]
-    v2 = var[:, None, :, :, None]
-    gap = x - mu[:, None, :, :, None, :]
-    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
-    off = x - hyp.pos[:, None, :, None, None, :]
-    r = np.hypot(off[..., 0], off[..., 1])
-    ring = np.exp(ring_loglik(r, np.broadcast_to(rho[:, None, None, :, None], r.shape), v2))
-    collide = np.where(known[:, None, :, :, None], gauss, ring).mean(axis=-1)  # (R, K*, K', C)
+    collide = _collide(hyp, land, mu, var, rho)
     # Density of "I am h'" where the robot truly at h' goes: (R, K', C).
-    other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R, S)
-    vs = var[..., None]
-    mimic_ring = np.exp(
-        ring_loglik(
-            np.broadcast_to(other_len[:, None, None, :], vs.shape[:-1] + other_len.shape[-1:]),
-            np.broadcast_to(rho[:, None, :, None], vs.shape[:-1] + other_len.shape[-1:]),
-            vs,
+    mimic = _mimic_known(own, others, var, s)
+    # Heading unknown at h' (of weight > 0: one of weight 0 weighs nothing): the ring's density.
+    at = np.nonzero(~hyp.known & (hyp.weight > 0.0))
+    if len(at[0]):
+        other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R or 1, S)
+        other_len = np.broadcast_to(other_len, (len(hyp.known), other_len.shape[-1]))
+        shape = (len(at[0]), rho.shape[1], other_len.shape[1])  # (Q, C, S)
+        ring = ring_loglik(
+            np.broadcast_to(other_len[at[0]][:, None, :], shape),
+            np.broadcast_to(rho[at[0]][:, :, None], shape),
+            var[at][:, :, None],
         )
-    )
-    mimic = np.where(known, _mimic_known(own, others, var, s), mimic_ring.mean(axis=-1))
+        mimic[at] = np.exp(ring).mean(axis=-1)
     # My own detection's density under the truth: (R, K*, C).
     peak = np.where(
         known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
     )
     return collide, mimic, peak
+
+
+def _collide(
+    hyp: Hypotheses, land: np.ndarray, mu: np.ndarray, var: np.ndarray, rho: np.ndarray
+) -> np.ndarray:
+    """``(R, K*, K', C)`` density of "I am h'" at the points ``land`` ``(R, K*, C, M, 2)`` where
+    I land if I am h*, averaged over the M points: the Gaussian around ``mu`` where the heading
+    at h' is known, the ring's density otherwise.
+
+    A known h* lands M times on ``mu``: its densities are computed once (at ``mu``, for every
+    h* alike, which is cheap) and averaged as M equal values; only the unknown h* of weight > 0
+    are computed on their M ring points (those of weight 0 keep the values at ``mu``: they
+    weigh nothing). The values that count are those of computing every point."""
+    pos, known = hyp.pos, hyp.known
+    at_mu = _density_at(  # axes (robot, h*, h', candidate)
+        mu[:, :, None],
+        mu[:, None],
+        var[:, None],
+        pos[:, None, :, None, :],
+        rho[:, None, None, :],
+        known[:, None, :, None],
+    )
+    collide = _mean_of_equal(at_mu, land.shape[3]).copy()
+    # The robots and h* whose heading is unknown, of weight > 0 (a hypothesis of weight 0
+    # weighs nothing in the expected entropy, whatever its densities).
+    ring = np.nonzero(~known & (hyp.weight > 0.0))
+    if len(ring[0]):
+        r = ring[0]
+        values = _density_at(  # axes (robot and h*, h', candidate, point)
+            land[ring][:, None],
+            mu[r][:, :, :, None, :],
+            var[r][:, :, :, None],
+            pos[r][:, :, None, None, :],
+            rho[r][:, None, :, None],
+            known[r][:, :, None, None],
+        )
+        collide[ring] = values.mean(axis=-1)
+    return collide
+
+
+def _density_at(
+    x: np.ndarray,
+    mu: np.ndarray,
+    v2: np.ndarray,
+    pos: np.ndarray,
+    rho: np.ndarray,
+    known: np.ndarray,
+) -> np.ndarray:
+    """Density of "I am h'" at the points ``x`` (``(..., 2)``): the Gaussian around ``mu`` of
+    variance ``v2`` where the heading at h' is ``known``, otherwise the ring of radius ``rho``
+    around the row ``pos`` (every argument broadcast against the others)."""
+    gap = x - mu
+    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
+    off = x - pos
+    r = np.hypot(off[..., 0], off[..., 1])
+    ring = np.exp(ring_loglik(r, np.broadcast_to(rho, r.shape), v2))
+    return np.where(known, gauss, ring)
 
 
 def _densities_known(

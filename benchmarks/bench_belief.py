@@ -6,6 +6,9 @@ Run from the repository root, with an older commit checked out elsewhere::
     git worktree add /work/old-main 9b13f2a
     python benchmarks/bench_belief.py --old /work/old-main             # about 10 minutes
     python benchmarks/bench_belief.py --old /work/old-main --robots 30 --copies 4 --rounds 5
+    python benchmarks/bench_belief.py --old /work/old-main --train 2  # anonloc train, mixed
+    python benchmarks/bench_belief.py --old /work/old-main --robots 10 30 100 300 1000 \
+        --copies 1 --rounds 1 --growth                                # cost against N
 
 Each measurement is a fresh interpreter (``PYTHONPATH`` set to one checkout or the other) that
 builds the env (``--copies`` copies of the ``default`` scenario with N robots, the ``team``
@@ -15,6 +18,12 @@ seed 0, takes one untimed step, then steps it with uniform random candidate choi
 checkouts run one after the other, in an order that alternates between rounds; the figures are
 medians over the rounds and the ratio is the median of the per-round ratios, so that a slow spell
 of the shared machine weighs on both sides.
+
+``--train R`` measures ``anonloc train`` instead: the bundled run's configuration
+(``benchmarks.train_bundled.BUNDLED``: the ``mixed`` condition, 12 env copies, the ``team``
+reward, PPO with its hyperparameters and the candidate scorer, one torch thread), one untimed
+rollout, then ``PPO.learn`` over R rollouts (collection and updates): decisions per second with
+the network included.
 """
 
 from __future__ import annotations
@@ -25,6 +34,8 @@ import statistics
 import subprocess
 import sys
 from pathlib import Path
+
+import numpy as np
 
 WORKER = """
 import sys, time
@@ -50,12 +61,28 @@ print(steps * vec.num_envs / (time.perf_counter() - start))
 """
 
 
-def rate(checkout: Path, n: int, copies: int, clutter: bool, seconds: float) -> float:
-    """Decisions per second of one fresh interpreter on ``checkout``."""
+TRAIN = """
+import sys, time
+import torch
+from agents.train import build_model, make_vec_env
+from benchmarks.train_bundled import BUNDLED
+torch.set_num_threads(1)
+rollouts = int(sys.argv[1])
+vec = make_vec_env(BUNDLED)
+model = build_model(BUNDLED, vec)
+per_rollout = model.n_steps * vec.num_envs
+model.learn(total_timesteps=per_rollout)  # untimed: the first reset and rollout
+start = time.perf_counter()
+model.learn(total_timesteps=rollouts * per_rollout, reset_num_timesteps=False)
+print(rollouts * per_rollout / (time.perf_counter() - start))
+"""
+
+
+def rate(checkout: Path, code: str, args: list[str]) -> float:
+    """Decisions per second that ``code`` prints, run in a fresh interpreter on ``checkout``."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
-    args = [str(n), str(copies), "1" if clutter else "0", str(seconds)]
     out = subprocess.run(
-        [sys.executable, "-c", WORKER, *args],
+        [sys.executable, "-c", code, *args],
         env=env,
         cwd=checkout,
         capture_output=True,
@@ -73,26 +100,54 @@ def main() -> None:
     parser.add_argument("--copies", type=int, nargs="+", default=[4, 12])
     parser.add_argument("--rounds", type=int, default=3, help="alternations (medians)")
     parser.add_argument("--seconds", type=float, default=4.0, help="timed stepping per run")
+    parser.add_argument(
+        "--train",
+        type=int,
+        default=0,
+        metavar="ROLLOUTS",
+        help="instead: PPO.learn of the bundled run (mixed condition, 12 copies, network "
+        "included, one torch thread) over this many rollouts after an untimed one",
+    )
+    parser.add_argument(
+        "--growth", action="store_true", help="also fit how a decision's cost grows with N"
+    )
     args = parser.parse_args()
+    sides = {"old": args.old.resolve(), "new": args.new.resolve()}
+    if args.train:
+        alternate(sides, args.rounds, TRAIN, [str(args.train)], "anonloc train (mixed)")
+        return
     print("| N | copies | clutter | old decisions/s | new decisions/s | new / old |")
     print("|---:|---:|---|---:|---:|---:|")
-    sides = {"old": args.old.resolve(), "new": args.new.resolve()}
+    medians: dict[str, list[float]] = {"old": [], "new": []}
     for n in args.robots:
         for copies in args.copies:
             clutter = n == 30
-            rates: dict[str, list[float]] = {"old": [], "new": []}
-            for r in range(args.rounds):
-                for side in ("old", "new") if r % 2 == 0 else ("new", "old"):
-                    rates[side].append(rate(sides[side], n, copies, clutter, args.seconds))
-            ratio = statistics.median(
-                b / a for a, b in zip(rates["old"], rates["new"], strict=True)
-            )
-            old, new = (statistics.median(rates[side]) for side in ("old", "new"))
-            print(
-                f"| {n} | {copies} | {'8 % misses, 2 FP' if clutter else 'none'} "
-                f"| {old:,.0f} | {new:,.0f} | {ratio:.2f}x |",
-                flush=True,
-            )
+            label = f"{n} | {copies} | {'8 % misses, 2 FP' if clutter else 'none'}"
+            work = [str(n), str(copies), "1" if clutter else "0", str(args.seconds)]
+            for side, value in alternate(sides, args.rounds, WORKER, work, label).items():
+                medians[side].append(value)
+    if args.growth:
+        robots = np.repeat(args.robots, len(args.copies))
+        for side, values in medians.items():
+            # decisions/s ~ N^-b: the cost of one decision grows as N^b.
+            slope = np.polyfit(np.log(robots), np.log(values), 1)[0]
+            print(f"\n{side}: one decision costs ~ N^{-slope:.2f} (least squares, log-log)")
+
+
+def alternate(
+    sides: dict[str, Path], rounds: int, code: str, args: list[str], label: str
+) -> dict[str, float]:
+    """Run ``code`` on the old and new checkouts ``rounds`` times each, alternating which goes
+    first, and print a table row: the medians and the median of the per-round ratios. Returns
+    the medians."""
+    rates: dict[str, list[float]] = {"old": [], "new": []}
+    for r in range(rounds):
+        for side in ("old", "new") if r % 2 == 0 else ("new", "old"):
+            rates[side].append(rate(sides[side], code, args))
+    ratio = statistics.median(b / a for a, b in zip(rates["old"], rates["new"], strict=True))
+    old, new = (statistics.median(rates[side]) for side in ("old", "new"))
+    print(f"| {label} | {old:,.0f} | {new:,.0f} | {ratio:.2f}x |", flush=True)
+    return {"old": old, "new": new}
 
 
 if __name__ == "__main__":
