@@ -287,6 +287,12 @@ def results(
     return out
 
 
+HEADER = (
+    "| robots/m² | N | excitation | pictures to 99 % [95 %] | reached 99 % "
+    "| confident decisions wrong | largest fall after 95 % |\n|---|---|---|---|---|---|---|"
+)
+
+
 def _line(cell: Mapping[str, Any]) -> str:
     p = cell["pictures"]
     wrong = 100.0 * cell["wrong"] / max(cell["decided"], 1)
@@ -295,7 +301,7 @@ def _line(cell: Mapping[str, Any]) -> str:
     return (
         f"| {cell['density']:g} | {cell['n']} | {cell['excitation']} | {p['mean']:.2f} "
         f"[{p['low']:.2f}, {p['high']:.2f}] | {cell['reached']}/{cell['episodes']} "
-        f"| {wrong:.2f} % of {cell['decided']:,} | {fall_text} |"
+        f"| {wrong:.2f} % of {cell['decided']:,} ({cell['wrong']}) | {fall_text} |"
     )
 
 
@@ -416,6 +422,8 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument("--episodes", type=int, default=4)
     r.add_argument("--first-seed", type=int, default=9000)
     r.add_argument("--json")
+    t = sub.add_parser("table", help="the markdown table of a results JSON")
+    t.add_argument("results")
     p = sub.add_parser("plot")
     p.add_argument("results")
     p.add_argument("out", help="path prefix: writes PREFIX-reliability.png, PREFIX-share.png")
@@ -455,6 +463,12 @@ def main(argv: list[str] | None = None) -> None:
         rows = open_space(args.conditions, names, args.episodes, args.first_seed, extra)
         if args.json:
             write_json(args.json, rows)
+    elif args.command == "table":
+        with open(args.results) as f:
+            cells = sorted(json.load(f), key=lambda c: (c["density"], c["n"]))
+        print(HEADER)
+        for cell in cells:
+            print(_line(cell))
     elif args.command == "plot":
         from benchmarks.plot_crowds import plot
 
