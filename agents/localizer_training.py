@@ -1,7 +1,7 @@
-"""Training the learned localizer ``mlp`` (:mod:`baselines.mlp`) on the env's ground truth.
+"""Training the learned localizer ``mlp`` (``baselines.mlp``) on the env's ground truth.
 
-Supervised: robots drive in seeded episodes of several scenarios (:data:`CONDITIONS`), every
-robot's :class:`~baselines.mlp.MLPLocalizer` records what its MLP reads at every picture, and the
+Supervised: robots drive in seeded episodes of several scenarios (:func:`conditions`), every
+robot's ``baselines.mlp.MLPLocalizer`` records what its MLP reads at every picture, and the
 env's ``true_index`` (from ``infos``, never shown to the robots) is the label: the MLP learns to
 give its true row the highest score (cross-entropy over the rows and "not in this picture").
 
@@ -11,7 +11,12 @@ replayed with the weights of the round before, so the beliefs it reads are its o
 
 The shipped weights (``baselines/data/mlp.npz``) were made by::
 
-    python -m agents.localizer_training --out baselines/data/mlp.npz
+    python -m agents.localizer_training --out baselines/data/mlp.npz --workers 4
+
+(two rounds of 11,040 samples; 14 minutes on the shared 2-core machine; the held-out top row
+was right for 47.4 % of the samples after the first round and 55.8 % after the second: one
+picture pair of a crowd without headings is often ambiguous). ``--workers`` only spreads the
+episodes over processes: the weights do not depend on it.
 
 Training seeds start at :data:`FIRST_SEED`, far from every evaluation's (``anonloc reproduce``
 and ``bench`` use 0 upward, ``benchmarks/agent_eval.py`` 100000 upward). torch (the ``rl`` extra)
@@ -102,7 +107,7 @@ def conditions(scale: float = 1.0) -> list[Condition]:
 
 
 class _Recorder(MLPLocalizer):
-    """An :class:`~baselines.mlp.MLPLocalizer` that keeps what its MLP read at each picture."""
+    """An ``baselines.mlp.MLPLocalizer`` that keeps what its MLP read at each picture."""
 
     def reset(self) -> None:
         super().reset()

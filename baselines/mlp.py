@@ -112,7 +112,7 @@ def row_features(
     """The MLP's inputs :data:`FEATURES` for R robots and every row of the newest picture.
 
     Args:
-        geometry: the (row, previous row) pairs, :meth:`Geometry.between`.
+        geometry: the (row, previous row) pairs, ``Geometry.between``.
         d: ``(R, 2)`` each robot's own displacement since the previous picture (m, its frame).
         dphi: ``(R,)`` its own turn (rad).
         sigma: ``(R,)`` the displacement tolerance per component (m).
