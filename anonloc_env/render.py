@@ -6,7 +6,8 @@ A robot's guess (``env.guesses``), when set, is drawn so that right and wrong di
 right guess is a green ring around the robot; a wrong one is a red ring around the detection it
 chose, joined to the robot by a red line. A legend at the bottom says so. With the image source
 (``camera.source = "image"``) the camera's newest grayscale image is shown in the top-right corner
-(picture-in-picture).
+(picture-in-picture). A camera that moves (``camera.drift`` and the wobbles) has its footprint, the
+ground its field of view covered at the newest picture, drawn as a blue outline.
 
 Only the ``human`` mode opens a display; ``rgb_array`` draws off screen and never initialises SDL's
 video (so no display, and no message about one, is needed).
@@ -33,6 +34,7 @@ _INSET = 0.3  # side of the picture-in-picture, as a fraction of the window's wi
 _RIGHT = (30, 160, 60)  # a right guess
 _WRONG = (210, 40, 40)  # a wrong guess
 _DETECTION = (90, 90, 90)
+_FOOTPRINT = (60, 110, 220)  # the moving camera's field of view on the ground
 _TEXT = (20, 20, 20)
 
 
@@ -130,9 +132,12 @@ class Renderer:
             np.array([[0.0, 0.0], [width, 0.0], [width, height], [0, height]])
         )
         pg.draw.polygon(surface, (40, 40, 40), corners.tolist(), 2)
+        if self.config.camera.moves:  # the ground the moving camera saw at the newest picture
+            footprint = self._to_screen(self.camera.footprint())
+            pg.draw.polygon(surface, _FOOTPRINT, footprint.tolist(), 2)
         self._draw_robots(poses)
         if picture is not None and picture.n_rows > 0:
-            ground = self.camera.unproject(picture.detections[:, :2])
+            ground = self._ground(picture)
             screen = self._to_screen(ground)
             for x, y in screen:
                 self._cross(x, y)
@@ -149,6 +154,15 @@ class Renderer:
             self.clock.tick(self.config_fps())
             return None
         return np.transpose(pg.surfarray.array3d(surface), (1, 0, 2)).copy()
+
+    def _ground(self, picture: Picture) -> np.ndarray:
+        """The ground points of a picture's rows: through the camera's pose when it was taken,
+        or through its set point where ground landmarks rectified the rows into that frame."""
+        uv = picture.detections[:, :2]
+        if picture.homography is None:
+            return self.camera.unproject(uv)
+        h = np.column_stack([uv, np.ones(len(uv))]) @ np.linalg.inv(self.camera.set_point).T
+        return h[:, :2] / h[:, 2:3]
 
     def config_fps(self) -> int:
         """Frames per second of the human window (real time, capped at 60)."""
