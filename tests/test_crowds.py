@@ -51,6 +51,17 @@ def test_recorded_episode_goes_wrong_without_the_contact_model() -> None:
     assert (3, 26) in wrong
 
 
+def test_contact_model_only_on_clean_pictures() -> None:
+    """With misses or false positives the model is the one before issue 23 (docs/crowds.md)."""
+    clean = SensorModel.from_config(anonloc_env.make_config("crowd"))
+    assert clean.crowd_push_share == 1.0
+    assert clean.contact_break > 0.0
+    for camera in ({"p_miss": 0.1}, {"false_positives": 2.0}):
+        cluttered = SensorModel.from_config(anonloc_env.make_config("crowd", camera=camera))
+        assert cluttered.crowd_push_share is None
+        assert cluttered.contact_break == 0.0
+
+
 def test_contact_model_fields_are_checked() -> None:
     model = SensorModel.from_config(anonloc_env.make_config("crowd"))
     with pytest.raises(ValueError, match="crowd_push_share"):
