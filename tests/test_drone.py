@@ -292,3 +292,14 @@ def test_faithful_motion_survives_a_picture_the_robots_drifted_out_of() -> None:
     team = baselines.make_team("motion", env, mode="faithful")
     result = run_episode(env, team, seed=19, max_pictures=10)
     assert len(result.records) == 40
+
+
+@pytest.mark.parametrize("preset", ["drone-hover", "drone-windy"])
+def test_drone_presets_pass_pettingzoos_checks(preset: str) -> None:
+    from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+    def make() -> anonloc_env.AnonLocEnv:
+        return anonloc_env.parallel_env(preset, camera={"landmarks": border_landmarks((4, 4))})
+
+    parallel_api_test(make(), num_cycles=200)
+    parallel_seed_test(make)
