@@ -57,6 +57,7 @@ BUILT_IN_POLICIES: dict[str, Entry] = {
     "motion": Entry("baselines.localizers:MotionLocalizer", "random"),
     "motion3": Entry("baselines.localizers:Motion3Localizer", "random"),
     "bayes": Entry("baselines.localizers:BayesLocalizer", "random"),
+    "mlp": Entry("baselines.mlp:MLPLocalizer", "random"),
 }
 
 BUILT_IN_EXCITATIONS: dict[str, Entry] = {
