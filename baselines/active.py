@@ -43,67 +43,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from anonloc_env.identify import SensorModel, ring_loglik
-from baselines.excitations import BackOff, DistinctSettings, Excitation, check_command_box
+from baselines.excitations import BackOff, Excitation
+from baselines.excitations.candidates import GreedySettings, candidate_commands
 from baselines.steps import BeliefView, Step
-
-
-@dataclass
-class GreedySettings:
-    """Settings of :class:`GreedyIdentification`, all rates in SI units.
-
-    Attributes:
-        candidates: number of candidate commands drawn per robot and picture, >= 1.
-        speed: range of candidate forward speeds (m/s). On swarm duty, deviations are drawn in
-            ``[-speed[1], speed[1]]``.
-        turn: largest candidate turn rate (rad/s); rates are uniform in ``[-turn, turn]``.
-        others: the other robots' commands ``(v, w)`` (m/s, rad/s), equally likely; ``None``: a
-            3 x 5 grid over the candidates' box (the other robots are like this one).
-        hypotheses: most rows kept as hypotheses per robot, >= 1.
-        floor: rows below this belief are no hypothesis, in [0, 1).
-        ring_samples: points per ring when the heading is unknown, >= 1.
-        energy_weight: nats of expected entropy worth one metre of wheel travel, >= 0; a small
-            value breaks ties (a robot sure of itself drives the cheapest candidate).
-        back: the back-off after a bump (only ``back_speed``, ``back_time`` and ``turn`` are
-            used).
-    """
-
-    candidates: int = 8
-    speed: tuple[float, float] = (0.1, 0.5)
-    turn: float = 1.0
-    others: tuple[tuple[float, float], ...] | None = None
-    hypotheses: int = 6
-    floor: float = 1e-3
-    ring_samples: int = 8
-    energy_weight: float = 0.1
-    back: DistinctSettings = field(default_factory=DistinctSettings)
-
-    def __post_init__(self) -> None:
-        for name in ("candidates", "hypotheses", "ring_samples"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        check_command_box(self.speed, self.turn)
-        if not 0.0 <= self.floor < 1.0:
-            raise ValueError(f"floor must be in [0, 1), got {self.floor}")
-        if not self.energy_weight >= 0.0:
-            raise ValueError(f"energy_weight must be >= 0 nats/m, got {self.energy_weight}")
-        if self.others is not None and len(self.others) == 0:
-            raise ValueError("others must hold at least one command (v, w), or be None")
-
-    def other_commands(self, deviation: bool) -> np.ndarray:
-        """``(S, 2)`` the other robots' commands (deviations on swarm duty)."""
-        if self.others is not None:
-            return np.asarray(self.others, dtype=np.float64).reshape(-1, 2)
-        low = -self.speed[1] if deviation else self.speed[0]
-        v, w = np.meshgrid(
-            np.linspace(low, self.speed[1], 3), np.linspace(-self.turn, self.turn, 5)
-        )
-        return np.stack([v.ravel(), w.ravel()], axis=1)
 
 
 def unicycle(v: np.ndarray, w: np.ndarray, duration: float) -> np.ndarray:
@@ -360,12 +307,7 @@ class GreedyIdentification(Excitation):
     def _candidates(self, deviation: bool) -> np.ndarray:
         """``(R, C, 2)`` candidate commands, each robot from its own generator."""
         st = self.settings
-        low = -st.speed[1] if deviation else st.speed[0]
-        out = np.empty((self.n, st.candidates, 2))
-        for i, rng in enumerate(self.rngs):
-            out[i, :, 0] = rng.uniform(low, st.speed[1], st.candidates)
-            out[i, :, 1] = rng.uniform(-st.turn, st.turn, st.candidates)
-        return out
+        return candidate_commands(self.rngs, st.candidates, st.speed, st.turn, deviation)
 
     def score(self) -> CandidateSet | None:
         """Draw every robot's candidate commands for the interval now starting (each robot from

@@ -59,11 +59,14 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
     "swarm": Entry("baselines.excitations:SwarmMotion"),
     "distinct": Entry("baselines.excitations:DistinctMotion"),
     "greedy": Entry("baselines.active:GreedyIdentification"),
+    "uniform": Entry("baselines.excitations.uniform:UniformChoice"),
 }
 """The excitations by name. ``random`` is the paper's random motion (the excitation of the
 ``motion`` localizer); ``swarm`` is ``SwarmMotion`` with its defaults (jitter ``SWARM_JITTER``,
 common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
-``baselines.active.GreedyIdentification``."""
+``baselines.active.GreedyIdentification``; ``uniform`` is
+``baselines.excitations.uniform.UniformChoice`` (chance among the learned agent's candidates,
+its no-learning ablation)."""
 
 RENAMED = {"motion": "random"}
 """Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.

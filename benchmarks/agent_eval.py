@@ -1,4 +1,4 @@
-"""The learned agent against random, ``distinct`` and ``greedy`` on the conditions of issue 17.
+"""The learned agent against ``uniform``, random, ``distinct`` and ``greedy`` on the conditions.
 
 Every robot runs the ``bayes`` identifier (decisions at belief 0.99) and one excitation; the
 evaluation seeds (from ``--first-seed``, default 100000) are never used in training (a training
@@ -39,7 +39,7 @@ from baselines.runner import EpisodeResult
 from baselines.scoring import bootstrap_mean, pictures_to_identify
 from benchmarks.agent_conditions import evaluation_conditions
 
-BASELINES = ("random", "distinct", "greedy")
+BASELINES = ("uniform", "random", "distinct", "greedy")
 #: Episodes per condition by default (fewer where N is large).
 EPISODES = {10: 40, 20: 40, 50: 30, 100: 20, 1000: 5}
 

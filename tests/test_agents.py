@@ -28,6 +28,7 @@ from agents.policy import LearnedExcitation, draw, load_model
 from agents.vec import AnonLocVecEnv
 from baselines.active import GreedyIdentification
 from baselines.excitations import SwarmDuty
+from baselines.registry import make_excitation
 from baselines.runner import run_episode
 
 SMALL = {
@@ -232,6 +233,28 @@ def test_the_teacher_is_greedys_choice() -> None:
             runs[-1].append(actions.copy())
             observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
     np.testing.assert_array_equal(np.array(runs[0]), np.array(runs[1]))
+
+
+class _CoinFlip(CandidateChooser):
+    """The agent with zero logits: a fair draw among its candidates (``agents.policy.draw``)."""
+
+    def on_scored(self) -> None:
+        if self.cset is not None:
+            self.decide(draw(np.zeros((self.n, self.candidates)), self.rngs))
+
+
+@pytest.mark.parametrize("swarm", [False, True])
+def test_uniform_is_the_agent_with_zero_logits(swarm: bool) -> None:
+    """``uniform`` (no torch, in ``baselines``) gives bit for bit the episode of the agent's
+    chooser driven by zero logits: same candidates, same coin, same back-off."""
+    config = small_config(n_robots=6, arena_size=(2.5, 2.5))
+    env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
+    rows = []
+    for own in (_CoinFlip(), make_excitation("uniform")):
+        excitation = SwarmDuty(own, 0.2, common_seed=4) if swarm else own
+        team = baselines.make_team("bayes", env, excitation=excitation)
+        rows.append(run_episode(env, team, 4, max_pictures=10).rows())
+    assert rows[0] == rows[1]
 
 
 def test_swarm_duty_tells_the_chooser_it_deviates_from_the_first_picture() -> None:
