@@ -3,10 +3,14 @@
 BenchMARL (a MARL library on TorchRL: MAPPO, IPPO, MADDPG, QMIX, ...) trains on tasks; this
 module defines two, built from the YAML files in ``agents/conf/`` (package data):
 
-| Task | Environment | Action per robot | Observation per robot | State |
-|---|---|---|---|---|
-| `AnonLocTask.RAW` | `anonloc_env.AnonLocEnv` | `(2,)` in [-1, 1] (continuous) | the env's dict, `detections` flattened to `(3 M,)` | true poses, `(3 N,)` |
-| `AnonLocTask.BELIEF` | `agents.pettingzoo.BeliefParallelEnv` | one of `C` candidates (discrete) | `(7 C + 10,)` (its `flat` form) | true poses, `(3 N,)` |
+| Task | Environment | Action per robot | Observation per robot |
+|---|---|---|---|
+| `RAW` | `anonloc_env.AnonLocEnv` | `(2,)` in [-1, 1] | the env's dict |
+| `BELIEF` | `agents.pettingzoo.BeliefParallelEnv` | one of `C` candidates | `(7 C + 10,)` |
+
+The raw task's actions are continuous and its `detections` are flattened to `(3 M,)`; the belief
+task's are discrete and its observation is the belief env's `flat` form. Both give BenchMARL the
+global state: every robot's true pose, flattened to `(3 N,)`.
 
 All robots form one group, ``robot`` (one set of parameters when the algorithm shares them).
 The state (every robot's true pose, the env's ``state()``) is what a centralised critic (MAPPO,
@@ -24,6 +28,11 @@ MADDPG, QMIX's mixer) may read; the robots' own observations never hold it.
 ...     seed=0, config=ExperimentConfig.get_from_yaml())  # doctest: +SKIP
 >>> experiment.run()  # doctest: +SKIP
 
+:func:`experiment` does the same on the CPU with the few settings a short run needs, and
+:class:`BenchmarlExcitation` drives robots with a trained belief-task policy through
+``baselines``' protocol (``agents.evaluation.play``), so that it is scored as every other
+excitation is.
+
 Needs the ``benchmarl`` extra (see ``docs/benchmarl.md``).
 """
 
@@ -35,13 +44,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import torch
 import yaml
 from benchmarl.environments.common import Task, TaskClass
+from benchmarl.experiment import Experiment, ExperimentConfig
+from tensordict import TensorDict
 from torchrl.data import Composite
 from torchrl.envs import EnvBase, FlattenObservation, PettingZooWrapper, Transform
 
+from agents.candidate_features import CANDIDATES
+from agents.candidates import CandidateChooser
 from agents.crew import CONDITIONS
-from agents.pettingzoo import BeliefParallelEnv
+from agents.pettingzoo import BeliefParallelEnv, flatten
+from agents.policy import draw
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import make_config
@@ -93,9 +109,7 @@ class BeliefSettings(RawSettings):
 
     def __post_init__(self) -> None:
         if self.condition not in CONDITIONS:
-            raise ValueError(
-                f"condition must be one of {list(CONDITIONS)}, got {self.condition!r}"
-            )
+            raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {self.condition!r}")
         if not 0.0 <= self.budget <= 1.0:
             raise ValueError(f"budget must be in [0, 1], got {self.budget!r}")
         if not (self.information_weight >= 0.0 and math.isfinite(self.information_weight)):
@@ -203,7 +217,7 @@ def _only(env: EnvBase, key: str) -> Composite:
     spec = env.observation_spec.clone()
     del spec["state"]
     for group in env.group_map:
-        for other in [k for k in spec[group].keys() if k != key]:
+        for other in [k for k in spec[group] if k != key]:
             del spec[group][other]
     return spec
 
@@ -229,3 +243,112 @@ class AnonLocTask(Task):
         config = yaml.safe_load(file.read_text()) or {}
         settings(self.name, config)
         return self.get_task(config=config)
+
+
+#: BenchMARL's algorithms by name (``benchmarl.algorithms``), the ones :func:`experiment` takes.
+ALGORITHMS = ("mappo", "ippo")
+
+
+def experiment(
+    task: TaskClass,
+    algorithm: str = "mappo",
+    *,
+    frames: int,
+    frames_per_batch: int,
+    envs: int,
+    folder: Path,
+    seed: int = 0,
+    minibatch: int = 200,
+    epochs: int = 4,
+    lr: float = 3e-4,
+) -> Experiment:
+    """A BenchMARL experiment of ``algorithm`` on ``task``, on the CPU, BenchMARL's defaults
+    (``benchmarl/conf``) otherwise, with an MLP actor and critic.
+
+    Args:
+        task: e.g. ``AnonLocTask.BELIEF.get_from_yaml()``.
+        algorithm: ``mappo`` (centralised critic on the state) or ``ippo``.
+        frames: env steps to collect in all (a multiple of ``frames_per_batch``).
+        frames_per_batch: env steps collected per iteration (over the ``envs`` envs).
+        envs: environments stepped one after the other to collect a batch.
+        folder: where BenchMARL writes its CSV log and marl-eval JSON (created).
+        seed: the experiment's seed (torch, and the envs' first reset).
+        minibatch: env steps per minibatch; ``epochs``: passes over each batch.
+        lr: Adam's learning rate.
+
+    Raises:
+        ValueError: an unknown algorithm, or ``frames`` not a positive multiple of
+            ``frames_per_batch``.
+    """
+    from benchmarl.algorithms import IppoConfig, MappoConfig
+    from benchmarl.models import MlpConfig
+
+    configs = {"mappo": MappoConfig, "ippo": IppoConfig}
+    if algorithm not in configs:
+        raise ValueError(f"algorithm must be one of {list(ALGORITHMS)}, got {algorithm!r}")
+    if frames_per_batch < 1 or frames < frames_per_batch or frames % frames_per_batch:
+        raise ValueError(
+            f"frames ({frames}) must be a positive multiple of frames_per_batch "
+            f"({frames_per_batch})"
+        )
+    folder.mkdir(parents=True, exist_ok=True)
+    config = ExperimentConfig.get_from_yaml()
+    settings = {
+        "sampling_device": "cpu",
+        "train_device": "cpu",
+        "buffer_device": "cpu",
+        "max_n_frames": frames,
+        "on_policy_collected_frames_per_batch": frames_per_batch,
+        "on_policy_n_envs_per_worker": envs,
+        "on_policy_n_minibatch_iters": epochs,
+        "on_policy_minibatch_size": minibatch,
+        "lr": lr,
+        "evaluation": False,
+        "render": False,
+        "loggers": ["csv"],
+        "create_json": True,
+        "save_folder": str(folder),
+        "checkpoint_interval": 0,
+        "checkpoint_at_end": False,
+    }
+    for key, value in settings.items():
+        setattr(config, key, value)
+    model = MlpConfig.get_from_yaml()
+    return Experiment(
+        task=task,
+        algorithm_config=configs[algorithm].get_from_yaml(),
+        model_config=model,
+        critic_model_config=model,
+        seed=seed,
+        config=config,
+    )
+
+
+class BenchmarlExcitation(CandidateChooser):
+    """The robots' commands from a policy trained on ``AnonLocTask.BELIEF``: at every picture
+    each robot's candidates are scored (as in the belief env), the policy's actor gives logits
+    over them, and each robot draws one with its own generator (as ``agents.policy`` does for
+    an SB3 agent); it is held until the next picture, with the back-off after a bump.
+
+    It must be the excitation of a team whose localizer is a ``BayesLocalizer``, of as many
+    robots as the policy was trained with (BenchMARL's MLP has one input row per agent).
+
+    Args:
+        experiment: a trained BenchMARL experiment on the belief task (its ``robot`` group's
+            actor is used, in evaluation mode, without gradients).
+        candidates: candidates per robot, as in training.
+    """
+
+    def __init__(self, experiment: Experiment, candidates: int = CANDIDATES) -> None:
+        super().__init__(candidates)
+        actor = experiment.group_policies[GROUP]
+        self.logits = actor.module[0] if hasattr(actor, "module") else actor
+
+    def on_scored(self) -> None:
+        if self.cset is None:
+            return
+        observation = torch.as_tensor(flatten(self.observation), dtype=torch.float32)
+        with torch.no_grad():
+            out = self.logits(TensorDict({GROUP: {"observation": observation}}))
+        logits = out[GROUP, "logits"].numpy().astype(np.float64)
+        self.decide(draw(logits, self.rngs))

@@ -1,7 +1,7 @@
 """The anonloc distribution's top-level packages, and a check that no other distribution claims one.
 
-anonloc installs four top-level packages: ``anonloc_env``, ``baselines``, ``agents`` and
-``anonloc_cli``. Two of those names are taken on the package index by unrelated distributions
+anonloc installs four top-level packages: ``anonloc_env``, ``baselines``, ``agents`` and the
+command line's. Two of those names are taken on the package index by unrelated distributions
 (OpenAI's ``baselines``, and ``agents``). Installed into one environment, two distributions with
 one top-level name write into the same folder, and whichever was installed last overwrites the
 other's files; on ``sys.path``, a package found first hides the other whole. ``baselines`` and

@@ -40,7 +40,7 @@ def test_citation_file_matches_the_package_and_cites_both_papers() -> None:
     dois = {reference["doi"] for reference in citation["references"]}
     assert dois == {"10.1109/ICCAR.2017.7942694", "10.3390/robotics13100148"}
     for reference in citation["references"]:
-        assert [a["family-names"] for a in reference["authors"]][0] == "Poulet"
+        assert reference["authors"][0]["family-names"] == "Poulet"
 
 
 def test_every_extra_with_a_known_breaking_major_is_capped() -> None:
