@@ -7,6 +7,8 @@ from their own generator). For each condition and excitation it reports, over al
 
 * pictures to 99 %: the censored mean (an episode that never gets there counts at its last
   picture, ``--pictures``), with a 95 % bootstrap interval;
+* pictures to 99 %: the Kaplan-Meier median (an episode that never gets there is censored at
+  its last picture), with its 95 % interval (``inf``: the data bound it only from below);
 * the share of episodes that reach 99 %;
 * energy to 99 %: mean wheel travel per robot until that picture (censored the same way), m;
 * confident decisions wrong: decisions (belief >= 0.99) on a row that is not the robot's, over
@@ -36,7 +38,8 @@ from baselines.excitations import Excitation
 from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
-from baselines.scoring import bootstrap_mean, pictures_to_identify
+from baselines.scoring import pictures_to_identify
+from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median
 from benchmarks.agent_conditions import evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
@@ -49,14 +52,18 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, float]:
     firsts, energies = zip(*(censored(r, pictures) for r in results), strict=True)
     decided = sum(rec.estimate >= 0 for r in results for rec in r.records)
     wrong = sum(rec.estimate >= 0 and not rec.correct for r in results for rec in r.records)
-    reached = sum(pictures_to_identify(r)[0] is not None for r in results)
+    reached = [pictures_to_identify(r)[0] is not None for r in results]
     mean = bootstrap_mean(firsts)
     spent = bootstrap_mean(energies)
+    median = km_median(firsts, reached)
     return {
         "pictures": mean.mean,
         "low": mean.low,
         "high": mean.high,
-        "reached": reached,
+        "median": median.median,
+        "median_low": median.low,
+        "median_high": median.high,
+        "reached": sum(reached),
         "episodes": len(results),
         "energy": spent.mean,
         "energy_low": spent.low,
@@ -64,6 +71,14 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, float]:
         "wrong": wrong / max(decided, 1),
         "decisions": decided,
     }
+
+
+def median_text(row: dict[str, float]) -> str:
+    """A row's Kaplan-Meier median and interval, as the tables print them."""
+    median = SurvivalMedian(
+        row["median"], row["median_low"], row["median_high"], int(row["episodes"]), 0
+    )
+    return str(median)
 
 
 def main() -> None:
@@ -85,8 +100,8 @@ def main() -> None:
     names = args.conditions or list(conditions)
     rows = []
     print(
-        "| condition | excitation | pictures to 99 % | reached | energy (m) | wrong | limit |"
-        "\n|---|---|---|---|---|---|---|"
+        "| condition | excitation | pictures to 99 % | KM median | reached | energy (m) | wrong "
+        "| limit |\n|---|---|---|---|---|---|---|---|"
     )
     for name in names:
         config, condition, budget = conditions[name]
@@ -107,7 +122,8 @@ def main() -> None:
             rows.append(row)
             print(
                 f"| {name} | {excitation} | {row['pictures']:.2f} [{row['low']:.2f}, "
-                f"{row['high']:.2f}] | {row['reached']}/{row['episodes']} | {row['energy']:.2f} "
+                f"{row['high']:.2f}] | {median_text(row)} | {row['reached']}/{row['episodes']} "
+                f"| {row['energy']:.2f} "
                 f"| {100 * row['wrong']:.2f} % | {limit.information:.2f} / {limit.union:.2f} |",
                 flush=True,
             )
