@@ -31,7 +31,7 @@ from agents.policy import LearnedExcitation, load_model
 from baselines.excitations import Excitation
 from baselines.registry import EXCITATIONS
 from benchmarks.agent_conditions import evaluation_conditions
-from benchmarks.agent_eval import score
+from benchmarks.agent_eval import median_text, score
 
 CONDITION = "free N=10"
 
@@ -100,7 +100,10 @@ def main() -> None:
     config, condition, budget = evaluation_conditions(args.pictures)[CONDITION]
     seeds = range(args.first_seed, args.first_seed + args.episodes)
     rows: list[dict[str, object]] = []
-    print("| excitation | pictures to 99 % | reached | energy (m) | wrong |\n|---|---|---|---|---|")
+    print(
+        "| excitation | pictures to 99 %: censored mean | Kaplan-Meier median | reached "
+        "| energy (m) | wrong |\n|---|---|---|---|---|---|"
+    )
     for name, make in makers.items():
         start = time.perf_counter()
         results = play(config, condition, budget, make, seeds, args.pictures)
@@ -110,7 +113,7 @@ def main() -> None:
         rows.append(row)
         print(
             f"| {name} | {row['pictures']:.2f} [{row['low']:.2f}, {row['high']:.2f}] | "
-            f"{row['reached']}/{row['episodes']} | {row['energy']:.2f} | "
+            f"{median_text(row)} | {row['reached']}/{row['episodes']} | {row['energy']:.2f} | "
             f"{100 * row['wrong']:.2f} % |",
             flush=True,
         )
