@@ -31,6 +31,8 @@ REID_BELIEF = 0.9
 REID_PICTURES = 5
 #: The blackout starts here (s), when every robot has long been identified.
 BLACKOUT_START = 5.0
+#: Robots in the ``density`` sweep (enough that most are away from the walls at 6 per m^2).
+CROWD_ROBOTS = 30
 
 
 @dataclass(frozen=True)
@@ -135,6 +137,13 @@ SWEEPS: dict[str, Sweep] = {
             log_x=True,
         ),
         Sweep(
+            "density",
+            f"Crowding: {CROWD_ROBOTS} robots, no detected headings (docs/crowds.md)",
+            "robots per square metre (0.2 m robots)",
+            (0.25, 0.5, 1, 2, 4, 6),
+            log_x=True,
+        ),
+        Sweep(
             "blackout",
             f"Identified again after a blackout from t = {BLACKOUT_START:g} s (5 % odometry noise)",
             "blackout duration (s)",
@@ -164,6 +173,10 @@ def overrides(sweep: Sweep, x: float) -> dict[str, Any]:
         out["camera"] = {"p_miss": float(x)}
     elif sweep.name == "false-positives":
         out["camera"] = {"false_positives": float(x)}
+    elif sweep.name == "density":
+        side = round(math.sqrt(CROWD_ROBOTS / float(x)), 3)
+        out = {"n_robots": CROWD_ROBOTS, "arena_size": [side, side]}
+        out["camera"] = {"orientation": False}
     elif sweep.name == "blackout":
         extra_time = float(x)
         out["robot"] = {"odometry_noise": 0.05}

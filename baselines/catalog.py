@@ -59,6 +59,7 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
     "swarm": Entry("baselines.excitations:SwarmMotion"),
     "distinct": Entry("baselines.excitations:DistinctMotion"),
     "greedy": Entry("baselines.active:GreedyIdentification"),
+    "gaps": Entry("baselines.excitations:GapSeeking"),
     "uniform": Entry("baselines.excitations.uniform:UniformChoice"),
 }
 """The excitations by name. ``random`` is the paper's random motion (the excitation of the
@@ -66,7 +67,8 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
 common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
 ``baselines.active.GreedyIdentification``; ``uniform`` is
 ``baselines.excitations.uniform.UniformChoice`` (chance among the learned agent's candidates,
-its no-learning ablation)."""
+its no-learning ablation); ``gaps`` is ``GapSeeking``, the crowd-aware one
+(``docs/crowds.md``)."""
 
 RENAMED = {"motion": "random"}
 """Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.

@@ -40,7 +40,7 @@ from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
 from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median
-from benchmarks.agent_conditions import evaluation_conditions
+from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
 #: Episodes per condition by default (fewer where N is large).
@@ -98,6 +98,7 @@ def main() -> None:
     makers["agent"] = lambda: LearnedExcitation(model)
     conditions = evaluation_conditions()
     names = args.conditions or list(conditions)
+    conditions |= crowded_conditions()  # run when named
     rows = []
     print(
         "| condition | excitation | pictures to 99 % | KM median | reached | energy (m) | wrong "
