@@ -30,7 +30,13 @@ from typing import Any
 
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
 from agents.crew import CONDITIONS, REWARDS
-from agents.run_folder import RunLock, interrupt_on_sigterm, read_config, write_config
+from agents.run_folder import (
+    RunLock,
+    interrupt_on_sigterm,
+    read_config,
+    set_aside_logs,
+    write_config,
+)
 from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
 from anonloc_env.presets import make_config
@@ -326,7 +332,10 @@ def resume(
         if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
             # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
             # the run starts again from step 0 rather than being a dead end.
-            say(f"no checkpoint in {directory / 'checkpoints'}: training the run from step 0")
+            kept = set_aside_logs(directory)
+            moved = "" if kept is None else f" (the earlier logs are kept in {kept})"
+            where = directory / "checkpoints"
+            say(f"no checkpoint in {where}: training the run from step 0{moved}")
             return _learn(config, directory, None)
         return _learn(config, directory, latest_checkpoint(directory, notify=notify))
 

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import itertools
 import json
 import math
@@ -54,7 +55,7 @@ from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, run_episode
-from baselines.scoring import summarize
+from baselines.scoring import bootstrap_mean, summarize
 from benchmarks.excitations import scenario
 from benchmarks.identify_quality import Scores, reliability
 
@@ -286,6 +287,12 @@ def results(
     return out
 
 
+HEADER = (
+    "| robots/m² | N | excitation | pictures to 99 % [95 %] | reached 99 % "
+    "| confident decisions wrong | largest fall after 95 % |\n|---|---|---|---|---|---|---|"
+)
+
+
 def _line(cell: Mapping[str, Any]) -> str:
     p = cell["pictures"]
     wrong = 100.0 * cell["wrong"] / max(cell["decided"], 1)
@@ -294,7 +301,7 @@ def _line(cell: Mapping[str, Any]) -> str:
     return (
         f"| {cell['density']:g} | {cell['n']} | {cell['excitation']} | {p['mean']:.2f} "
         f"[{p['low']:.2f}, {p['high']:.2f}] | {cell['reached']}/{cell['episodes']} "
-        f"| {wrong:.2f} % of {cell['decided']:,} | {fall_text} |"
+        f"| {wrong:.2f} % of {cell['decided']:,} ({cell['wrong']}) | {fall_text} |"
     )
 
 
@@ -324,6 +331,46 @@ def record(path: str, density: float, n: int, name: str, seed: int, pictures: in
     np.savez_compressed(path, **arrays)  # type: ignore[arg-type]  # numpy's stubs
 
 
+def open_space(
+    names: Sequence[str],
+    excitations: Sequence[str],
+    episodes: int,
+    first_seed: int,
+    extra: Mapping[str, Callable[[], Excitation]] | None = None,
+) -> list[dict[str, Any]]:
+    """The agents' evaluation conditions ``names`` with and without the contact model, on the
+    same seeds: each excitation's censored mean pictures to 99 % and its confident decisions
+    wrong, both ways (the model is switched through ``SensorModel.from_config``'s constant)."""
+    from agents.evaluation import censored
+    from agents.evaluation import play as play_condition
+    from anonloc_env.identify import model as sensor
+    from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
+
+    conditions = evaluation_conditions() | crowded_conditions()
+    share, out = sensor.CROWD_PUSH_SHARE, []
+    try:
+        for name in names:
+            config, condition, budget = conditions[name]
+            seeds = range(first_seed, first_seed + episodes)
+            for excitation in excitations:
+                row: dict[str, Any] = {"condition": name, "excitation": excitation}
+                for label, value in (("before", None), ("after", share)):
+                    sensor.CROWD_PUSH_SHARE = value  # type: ignore[assignment]  # the switch
+                    sensor._from_config.cache_clear()
+                    make = functools.partial(make_excitation, excitation, extra or {})
+                    results = play_condition(config, condition, budget, make, seeds, PICTURES)
+                    found = [censored(r, PICTURES)[0] for r in results]
+                    decided = [x for r in results for x in r.records if x.estimate >= 0]
+                    row[label] = dataclasses.asdict(bootstrap_mean(found))
+                    row[f"{label}_wrong"] = sum(not x.correct for x in decided) / len(decided)
+                out.append(row)
+                print(json.dumps(row), flush=True)
+    finally:
+        sensor.CROWD_PUSH_SHARE = share
+        sensor._from_config.cache_clear()
+    return out
+
+
 def load_recorded(path: str) -> tuple[EnvConfig, EpisodeResult]:
     """The scenario and episode :func:`record` wrote to ``path`` (pictures, motion, true rows)."""
     with np.load(path) as z:
@@ -348,6 +395,16 @@ def load_recorded(path: str) -> tuple[EnvConfig, EpisodeResult]:
     return scenario(n, PICTURES, float(arrays["density"])), result
 
 
+def _agent(path: str | None) -> dict[str, Callable[[], Excitation]]:
+    """``{"agent": ...}`` for a saved agent (the ``rl`` extra), or nothing."""
+    if not path:
+        return {}
+    from agents.policy import LearnedExcitation, load_model
+
+    model = load_model(path)
+    return {"agent": lambda: LearnedExcitation(model)}
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -365,9 +422,18 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument("--episodes", type=int, default=4)
     r.add_argument("--first-seed", type=int, default=9000)
     r.add_argument("--json")
+    t = sub.add_parser("table", help="the markdown table of a results JSON")
+    t.add_argument("results")
     p = sub.add_parser("plot")
     p.add_argument("results")
     p.add_argument("out", help="path prefix: writes PREFIX-reliability.png, PREFIX-share.png")
+    o = sub.add_parser("open-space")
+    o.add_argument("--conditions", nargs="+", default=["free N=10", "swarm N=10", "clutter N=20"])
+    o.add_argument("--excitations", nargs="+", default=["distinct", "random", "greedy"])
+    o.add_argument("--agent", help="a saved agent (agent.zip, or 'bundled') added as 'agent'")
+    o.add_argument("--episodes", type=int, default=10)
+    o.add_argument("--first-seed", type=int, default=100_000)
+    o.add_argument("--json")
     c = sub.add_parser("record")
     c.add_argument("out")
     c.add_argument("--density", type=float, default=4.0)
@@ -383,19 +449,26 @@ def main(argv: list[str] | None = None) -> None:
         if args.json:
             write_json(args.json, found)
     elif args.command == "results":
-        names, extra = list(args.excitations), {}
-        if args.agent:
-            from agents.policy import LearnedExcitation, load_model
-
-            model = load_model(args.agent)
-            names.append("agent")
-            extra["agent"] = lambda: LearnedExcitation(model)
+        names, extra = list(args.excitations), _agent(args.agent)
+        names += list(extra)
         print(
             "| robots/m² | N | excitation | pictures to 99 % | reached | wrong | fall after 95 % |"
         )
         print("|---|---|---|---|---|---|---|")
         grid = (args.densities, args.robots, names, args.episodes, args.first_seed)
         results(*grid, extra, args.json)
+    elif args.command == "open-space":
+        names, extra = list(args.excitations), _agent(args.agent)
+        names += list(extra)
+        rows = open_space(args.conditions, names, args.episodes, args.first_seed, extra)
+        if args.json:
+            write_json(args.json, rows)
+    elif args.command == "table":
+        with open(args.results) as f:
+            cells = sorted(json.load(f), key=lambda c: (c["density"], c["n"]))
+        print(HEADER)
+        for cell in cells:
+            print(_line(cell))
     elif args.command == "plot":
         from benchmarks.plot_crowds import plot
 

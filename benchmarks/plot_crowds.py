@@ -1,7 +1,7 @@
 """The figures of ``docs/crowds.md`` from ``python -m benchmarks.crowds results --json``: the
 reliability curve per density (every excitation and N pooled: top belief against how often the
 top row is right, 95 % Wilson intervals, bins with at least
-:data:`benchmarks.plot_reliability.MIN_COUNT` robot-pictures) and the share of robots right at
+``benchmarks.plot_reliability.MIN_COUNT`` robot-pictures) and the share of robots right at
 every picture, one panel per density and N. Needs matplotlib (``pip install anonloc[cli]``).
 
 Usage: ``python -m benchmarks.crowds plot crowds.json docs/assets/crowds`` (writes
@@ -10,13 +10,11 @@ Usage: ``python -m benchmarks.crowds plot crowds.json docs/assets/crowds`` (writ
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
-
-from baselines.statistics import wilson
-from benchmarks.plot_reliability import MIN_COUNT, _x
+from benchmarks.plot_reliability import draw
 
 
 def pooled(cells: Sequence[Mapping[str, Any]]) -> list[tuple[float, int, float]]:
@@ -44,36 +42,12 @@ def plot(cells: list[dict[str, Any]], prefix: str) -> None:
 
     densities = sorted({c["density"] for c in cells})
     figure, axis = plt.subplots(figsize=(6.0, 4.6), constrained_layout=True)
-    ticks = np.array([0.0, 0.5, 0.9, 0.99, 0.999, 0.9999])
-    axis.plot(_x(ticks), _x(ticks), color="0.6", lw=1, ls="--", label="calibrated")
-    for i, density in enumerate(densities):
-        rows = [
-            r for r in pooled([c for c in cells if c["density"] == density]) if r[1] >= MIN_COUNT
-        ]
-        if not rows:
-            continue
-        mean, count, right = (np.array(v) for v in zip(*rows, strict=True))
-        bounds = np.array([wilson(round(a * c), int(c)) for a, c in zip(right, count, strict=True)])
-        y = _x(right)
-        low, high = _x(bounds[:, 0]), _x(bounds[:, 1])
-        axis.errorbar(
-            _x(mean) + 0.03 * (i - len(densities) / 2),
-            y,
-            yerr=[np.maximum(y - low, 0.0), np.maximum(high - y, 0.0)],
-            marker="o",
-            ms=4,
-            capsize=3,
-            color=f"C{i}",
-            label=f"{density:g} robots/m² ({int(count.sum()):,} robot-pictures)",
-        )
-    labels = [f"{t:g}" for t in ticks]
-    axis.set_xticks(_x(ticks), labels)
-    axis.set_yticks(_x(ticks), labels)
-    axis.set_xlabel("top belief (bin mean)")
-    axis.set_ylabel("top row right (95 % Wilson)")
-    axis.set_title("Reliability in a crowd, every excitation and N")
-    axis.legend(fontsize=8, loc="upper left")
-    axis.grid(alpha=0.3)
+    curves = []
+    for density in densities:
+        rows = pooled([c for c in cells if c["density"] == density])
+        bins = [(math.nan, math.nan, count, right, mean) for mean, count, right in rows]
+        curves.append((f"{density:g} robots/m²", bins))
+    draw(axis, curves, "Reliability in a crowd, every excitation and N")
     figure.savefig(f"{prefix}-reliability.png", dpi=110)
     plt.close(figure)
     _share(cells, densities, f"{prefix}-share.png", plt)

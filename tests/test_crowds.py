@@ -51,6 +51,17 @@ def test_recorded_episode_goes_wrong_without_the_contact_model() -> None:
     assert (3, 26) in wrong
 
 
+def test_contact_model_only_on_clean_pictures() -> None:
+    """With misses or false positives the model is the one before issue 23 (docs/crowds.md)."""
+    clean = SensorModel.from_config(anonloc_env.make_config("crowd"))
+    assert clean.crowd_push_share == 1.0
+    assert clean.contact_break > 0.0
+    for camera in ({"p_miss": 0.1}, {"false_positives": 2.0}):
+        cluttered = SensorModel.from_config(anonloc_env.make_config("crowd", camera=camera))
+        assert cluttered.crowd_push_share is None
+        assert cluttered.contact_break == 0.0
+
+
 def test_contact_model_fields_are_checked() -> None:
     model = SensorModel.from_config(anonloc_env.make_config("crowd"))
     with pytest.raises(ValueError, match="crowd_push_share"):
@@ -129,3 +140,43 @@ def test_calibrated_at_four_robots_per_square_metre() -> None:
         mean = beliefs[inside].mean()
         sd = math.sqrt(mean * (1 - mean) / inside.sum())
         assert ok[inside].mean() >= mean - 3 * sd - 0.02, (low, high)
+
+
+def test_density_sweep_packs_thirty_robots_without_headings() -> None:
+    from anonloc_cli.sweeps import CROWD_ROBOTS, SWEEPS, overrides
+
+    sweep = SWEEPS["density"]
+    assert sweep.xs[0] == 0.25
+    assert sweep.xs[-1] == 6
+    for x in sweep.xs:
+        config = anonloc_env.make_config(**overrides(sweep, x))
+        width, height = config.arena_size
+        assert config.n_robots == CROWD_ROBOTS
+        assert CROWD_ROBOTS / (width * height) == pytest.approx(x, rel=1e-3)
+        assert not config.camera.orientation
+
+
+def test_crowd_preset_is_four_robots_per_square_metre() -> None:
+    config = anonloc_env.make_config("crowd")
+    width, height = config.arena_size
+    assert config.n_robots / (width * height) == 4.0
+    assert not config.camera.orientation
+
+
+def test_largest_fall_after_95_and_the_figures(tmp_path: Path) -> None:
+    from benchmarks.crowds import largest_fall
+
+    assert largest_fall([0.5, 0.96, 0.97, 0.94, 0.99]) == pytest.approx(0.03)
+    assert largest_fall([0.5, 0.9]) is None
+    pytest.importorskip("matplotlib")
+    from benchmarks.plot_crowds import plot, pooled
+
+    rows = [(0.9, 0.99, 40, 0.95, 0.95), (0.99, 1.0, 60, 1.0, 0.999)]
+    cells = [
+        {"density": d, "n": 30, "excitation": "gaps", "share": [0.0, 0.5, 1.0], "reliability": rows}
+        for d in (1.0, 4.0)
+    ]
+    assert pooled(cells)[0] == pytest.approx((0.95, 80, 0.95))
+    plot(cells, str(tmp_path / "c"))
+    for name in ("c-reliability.png", "c-share.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

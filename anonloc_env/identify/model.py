@@ -68,12 +68,14 @@ class SensorModel:
         crowd_push_share: ``push_share`` for a robot pressed (pushed in this interval and the
             one before: it slides consistently, see :mod:`anonloc_env.identify.contact`), in
             (0, 1]; ``None`` (the default): ``push_share`` for every robot. ``from_config``
-            sets :data:`anonloc_env.identify.contact.CROWD_PUSH_SHARE`.
+            sets :data:`anonloc_env.identify.contact.CROWD_PUSH_SHARE` where pictures have no
+            misses and no false positives, ``None`` elsewhere (measured worse there).
         contact_break: the contact bound (m, summed over an interval) over which a
             pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
-            default): never.
-            ``from_config`` sets :data:`anonloc_env.identify.contact.CONTACT_BREAK`.
+            default): never. ``from_config`` sets
+            :data:`anonloc_env.identify.contact.CONTACT_BREAK` (0 where it sets no
+            ``crowd_push_share``).
         registration: the camera's motion when it moves and no landmarks register its pictures
             (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
             the set point's frame first, and ``from_config`` adds the registration's error to
@@ -154,6 +156,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     mean = camera.scale
     u_min, v_min, u_max, v_max = camera.field_of_view
     cam = _camera_section(config)
+    clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
     return SensorModel(
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
@@ -171,8 +174,10 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         others_repeat=OTHERS_REPEAT,
         others_jitter=OTHERS_JITTER,
         others_turn=OTHERS_TURN,
-        crowd_push_share=CROWD_PUSH_SHARE,
-        contact_break=CONTACT_BREAK,
+        # The crowd's contact model was measured on clean pictures; with misses or false
+        # positives it made `random` slower and less reliable at one robot per m^2 (docs/crowds.md).
+        crowd_push_share=CROWD_PUSH_SHARE if clean else None,
+        contact_break=CONTACT_BREAK if clean else 0.0,
         registration=registration_prior(config),
     )
 
