@@ -25,5 +25,8 @@ except ModuleNotFoundError as missing:  # the `baselines` found first is not ano
         name="baselines",
     ) from missing
 
+# A foreign `baselines` first on sys.path can still lend anonloc's `baselines._distribution`
+# (an editable install's finder maps submodules by name), so check what `baselines` is too.
+_check_distribution("baselines")
 # `agents` 1.4.0 on the package index has this top-level name too (docs/design.md).
 _check_distribution("agents")
