@@ -95,21 +95,19 @@ class Crew:
         spent = np.zeros(self.n)
         robot, dt = self.config.robot, self.config.dt
         steps = 0
-        while True:
+        while True:  # the env's arrays, never its per-agent dicts (the same bits)
             steps += 1
             v, w = self.team.excitation.commands(self._step, dt)
             env_actions = self.team.command(v, w)
-            observations, rewards, _, truncations, infos = self.env.step(
-                dict(zip(self.agents, env_actions, strict=True))
-            )
+            result = self.env.step_arrays(env_actions)
             spent += energy(self.config, *to_commands(env_actions, robot))
-            reward += np.fromiter(rewards.values(), np.float64, self.n)
-            step = self.team.observe([observations[a] for a in self.agents])
+            reward += result.rewards
+            step = self.team.take(result.seen)
             self._step = step
-            truncated = bool(truncations[self.agents[0]])
+            truncated = result.truncated
             if step.new_picture or truncated:
                 break
-        truth = true_rows(infos, self.agents)
+        truth = result.true_index
         if step.new_picture:
             belief = true_belief(self.localizer.belief, truth)
             reward += self.spec.reward.term(self._belief_true, belief)

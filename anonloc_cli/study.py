@@ -145,7 +145,7 @@ def aggregate(
             success = [c for res in results for c in res["correct"]]
             counts = [p for res in results for p in res["pictures"] if p is not None]
         rate = Rate(sum(success), len(success))
-        low, high = tables.wilson(rate)
+        low, high = rate.interval
         mean = tables.mean_interval(counts)
         rows.append(
             {

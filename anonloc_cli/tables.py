@@ -44,15 +44,6 @@ def mean_interval(values: Sequence[float]) -> Mean:
     return Mean(mean, mean - half, mean + half, n)
 
 
-def wilson(rate: Rate) -> tuple[float, float]:
-    """The rate's 95 % Wilson interval, widened by rounding error only so that it always holds
-    the rate (``baselines.paper.wilson`` gives ``0.9999999999999999`` as the top of 5/5)."""
-    low, high = rate.interval
-    if rate.trials:
-        low, high = min(low, rate.value), max(high, rate.value)
-    return low, high
-
-
 def rate_text(rate: Rate) -> str:
     """``"84.0 % [77.4, 88.9] (168/200)"``."""
     if rate.trials == 0:

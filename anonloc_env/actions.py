@@ -7,7 +7,7 @@ The action of one robot is a float32 vector in ``[-1, 1]^2``: ``(v / v_max, w / 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -64,13 +64,37 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
                     f"action of {agent!r} must be 2 numbers (v, w) scaled to [-1, 1], got {row!r}"
                 )
         raise ValueError(f"actions must be 2 numbers per agent, got {actions!r}")
+    return _finite_clipped(stacked, lambda i: repr(agents[i]))
+
+
+def check_action_array(actions: Any, n: int) -> np.ndarray:
+    """Validate an ``(N, 2)`` array of actions in robot order and return it as a new float64
+    array, clipped to ``[-1, 1]`` (what :func:`stack_actions` returns for the same values).
+
+    Raises:
+        ValueError: ``actions`` is not an ``(n, 2)`` numeric array, or holds a non-finite value
+            (the message names the robot).
+    """
+    array = np.asarray(actions)
+    if array.shape != (n, 2) or array.dtype.kind not in "fiub":
+        raise ValueError(
+            f"actions must be an ({n}, 2) numeric array (v, w) scaled to [-1, 1], got shape "
+            f"{array.shape} of {array.dtype}"
+        )
+    # Always a copy: the caller's array is not clipped.
+    return _finite_clipped(array.astype(np.float64), lambda i: f"robot {i}")
+
+
+def _finite_clipped(stacked: np.ndarray, name: Callable[[int], str]) -> np.ndarray:
+    """``stacked`` ``(N, 2)`` float64 clipped to ``[-1, 1]`` in place, after checking that it is
+    finite (``name(i)`` names row ``i`` in the error)."""
     # A NaN or inf anywhere makes the sum of squares non-finite (huge finite values may too:
     # the exact check below then passes). One BLAS call, cheaper than ``sum``'s Python wrapper.
     if not math.isfinite(np.vdot(stacked, stacked)):
         finite = np.isfinite(stacked).all(axis=1)
         if not finite.all():
             bad = int(np.flatnonzero(~finite)[0])
-            raise ValueError(f"action of {agents[bad]!r} is not finite: {stacked[bad].tolist()}")
+            raise ValueError(f"action of {name(bad)} is not finite: {stacked[bad].tolist()}")
     # np.clip is slow on small arrays; two in-place ufuncs do the same.
     np.maximum(stacked, -1.0, out=stacked)
     np.minimum(stacked, 1.0, out=stacked)

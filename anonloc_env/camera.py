@@ -24,6 +24,7 @@ gradient over the arena, and its field of view, what the sensor model and the lo
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -31,8 +32,10 @@ from typing import Protocol
 
 import numpy as np
 
+from anonloc_env.camera_motion import pose_homography
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
+from anonloc_env.landmarks import fit_homography, landmark_rows, rectify
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +50,12 @@ class Picture:
         time: time the picture was taken (s since reset).
         index: 0 for the first picture of an episode, then 1, 2, ...
         has_orientation: whether ``theta`` was measured.
+        landmarks: ``(K, 3)`` rows ``(id, u, v)`` of the ground landmarks seen (``id`` indexes
+            ``camera.landmarks``; image units as taken, before rectification), or ``None``
+            without landmarks.
+        homography: ``(3, 3)`` the ground-to-image homography the landmarks gave, through which
+            ``detections`` were rectified into the set point's frame (see
+            :mod:`anonloc_env.landmarks`), or ``None`` without landmarks.
     """
 
     detections: np.ndarray
@@ -54,6 +63,8 @@ class Picture:
     time: float
     index: int
     has_orientation: bool
+    landmarks: np.ndarray | None = None
+    homography: np.ndarray | None = None
 
     @property
     def n_rows(self) -> int:
@@ -136,12 +147,35 @@ class Camera:
         )
         principal = np.array([[1.0, 0.0, cu], [0.0, 1.0, cv], [0.0, 0.0, 1.0]])
         self.homography = principal @ perspective @ center
-        """``(3, 3)`` map from ``(x, y, 1)`` on the ground to homogeneous image coordinates."""
+        """``(3, 3)`` map from ``(x, y, 1)`` on the ground to homogeneous image coordinates (of
+        the newest picture's pose: see :meth:`move_to`)."""
         self.inverse = np.linalg.inv(self.homography)
+        self.set_point = self.homography
+        """``(3, 3)`` the homography of the camera at its set point (the fixed camera's)."""
+        self.moved = False
+        """Whether the camera is away from its set point (:meth:`move_to`)."""
         self.principal_point = (cu, cv)
         self.capacity = detection_capacity(config)
         self.field_of_view = self._field_of_view()
         """``(u_min, v_min, u_max, v_max)`` of the region where detections can appear."""
+
+    def move_to(self, pose: np.ndarray | None) -> None:
+        """Put the camera at ``pose`` ``(6,)`` ``(x, y, z, yaw, pitch, roll)`` (m, rad; see
+        :mod:`anonloc_env.camera_motion`) for the pictures to come, or back at its set point
+        (``None``). The field of view stays the image's own: as the camera moves, its footprint
+        on the ground moves, and robots near the edge leave the picture."""
+        if pose is None:
+            self.homography, self.moved = self.set_point, False
+        else:
+            self.homography, self.moved = pose_homography(self.config, pose), True
+        self.inverse = np.linalg.inv(self.homography)
+
+    def footprint(self) -> np.ndarray:
+        """``(4, 2)`` the ground points (m) at the corners of the field of view, as the camera
+        stands now (the quadrilateral it sees)."""
+        u_min, v_min, u_max, v_max = self.field_of_view
+        corners = np.array([[u_min, v_min], [u_max, v_min], [u_max, v_max], [u_min, v_max]])
+        return self.unproject(corners)
 
     def _field_of_view(self) -> tuple[float, float, float, float]:
         cam = self.config.camera
@@ -182,7 +216,7 @@ class Camera:
 
     def image_heading(self, poses: np.ndarray) -> np.ndarray:
         """Detected heading (rad, in [-pi, pi)) of robots at ``poses`` ``(M, 3)`` (no noise)."""
-        if self.config.camera.tilt_deg == 0.0:
+        if self.config.camera.tilt_deg == 0.0 and not self.moved:
             return wrap_angle(poses[:, 2])
         jac = self.jacobian(poses[:, :2])
         heading = np.column_stack([np.cos(poses[:, 2]), np.sin(poses[:, 2])])
@@ -231,13 +265,39 @@ class Camera:
         row_of[order] = np.arange(len(rows))
         true_index = np.full(n, -1, dtype=np.int64)
         true_index[seen] = row_of[:n_true]
-        return Picture(
+        picture = Picture(
             detections=detections,
             true_index=true_index,
             time=time,
             index=index,
             has_orientation=cam.orientation,
         )
+        return self.register(picture, rng) if cam.landmarks else picture
+
+    def register(self, picture: Picture, rng: np.random.Generator) -> Picture:
+        """``picture`` rectified into the set point's frame by the ground landmarks this camera
+        sees now (noise and misses drawn from ``rng``; see :mod:`anonloc_env.landmarks`)."""
+        ids, uv = landmark_rows(self.config, self.project, self.field_of_view, rng)
+        return rectified(self.config, picture, ids, uv, self.set_point)
+
+
+def rectified(
+    config: EnvConfig, picture: Picture, ids: np.ndarray, uv: np.ndarray, set_point: np.ndarray
+) -> Picture:
+    """``picture`` with its rows mapped into the set point's frame through the homography that
+    the landmarks ``ids`` seen at ``uv`` give (the set point itself if fewer than 2 are seen)."""
+    world = np.asarray(config.camera.landmarks, dtype=np.float64).reshape(-1, 2)[ids]
+    estimated = fit_homography(world, uv)
+    if estimated is None:
+        estimated = set_point
+    rows = rectify(picture.detections, estimated, set_point)
+    rows[:, 2] = wrap_angle(rows[:, 2]) if picture.has_orientation else 0.0
+    return dataclasses.replace(
+        picture,
+        detections=rows,
+        landmarks=np.column_stack([ids, uv]) if len(ids) else np.zeros((0, 3)),
+        homography=estimated,
+    )
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,9 @@ MARKER_TEMPLATE_CELLS = 10
 #: Fewest pixels per marker cell ``camera.image_pixels_per_unit`` may give (the image source
 #: draws and blurs the marker at that scale; below it the blur grows without bound).
 MIN_CELL_PIXELS = 0.1
+#: Most ground landmarks ``camera.landmarks`` may hold: ids 1 to 49 of the 50 of ``DICT_4X4_50``
+#: (id 0 is the robots').
+MAX_LANDMARKS = 49
 
 
 @dataclass(frozen=True)
@@ -144,6 +147,26 @@ class CameraConfig:
             [0, 100].
         image_gradient: illumination gradient: the fraction of brightness lost from the top-left
             to the bottom-right corner of the image, in [0, 1).
+        drift: standard deviation of the camera's horizontal position about its set point (m,
+            per axis), in [0, 100]: a hovering drone's drift (see ``docs/drone.md``). 0 (and the
+            wobbles below at 0) is a fixed camera. Each axis is an Ornstein-Uhlenbeck process.
+        drift_time: correlation time of the horizontal drift (s), in (0, 1e6].
+        height_wobble: standard deviation of the camera's height about its set point (m), in
+            [0, height / 10]: the scale changes with it.
+        yaw_wobble_deg: standard deviation of the camera's yaw about the vertical (deg), in
+            [0, 30]: the picture turns with it.
+        tilt_wobble_deg: standard deviation of the drone's roll and pitch (deg, each), in
+            [0, 20], before the gimbal corrects them.
+        wobble_time: correlation time of the height, yaw and roll/pitch wobbles (s), in
+            (0, 1e6].
+        gimbal_bandwidth: bandwidth of the gimbal that holds the camera's tilt against the
+            drone's roll and pitch (Hz), in [0, 1000]: the camera is left with the part of the
+            wobble faster than it (a first-order lag of time constant ``1 / (2 pi bandwidth)``).
+            0: no gimbal, the camera tilts with the drone.
+        landmarks: ground positions ``(x, y)`` (m, inside the arena) of fixed markers with
+            distinct ids (ArUco ids 1, 2, ... of the robots' dictionary; the robots all wear id
+            0), at most 49. Every picture carries each landmark seen, with the same noise and
+            misses as a robot's detection: what a localizer needs to know the camera's pose.
     """
 
     scale: float = 100.0
@@ -161,6 +184,14 @@ class CameraConfig:
     image_blur: float = 0.0
     image_noise: float = 0.0
     image_gradient: float = 0.0
+    drift: float = 0.0
+    drift_time: float = 5.0
+    height_wobble: float = 0.0
+    yaw_wobble_deg: float = 0.0
+    tilt_wobble_deg: float = 0.0
+    wobble_time: float = 1.0
+    gimbal_bandwidth: float = 0.0
+    landmarks: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         check_number("camera.scale", self.scale, 0.0, MAX_IMAGE_COORDINATE, low_open=True)
@@ -197,6 +228,42 @@ class CameraConfig:
         check_number("camera.image_blur", self.image_blur, 0.0, 20.0)
         check_number("camera.image_noise", self.image_noise, 0.0, 100.0)
         check_number("camera.image_gradient", self.image_gradient, 0.0, 1.0, high_open=True)
+        self._check_motion()
+
+    def _check_motion(self) -> None:
+        """Check the camera-motion fields and the landmarks (see the class docstring)."""
+        check_number("camera.drift", self.drift, 0.0, 100.0)
+        check_number("camera.drift_time", self.drift_time, 0.0, 1e6, low_open=True)
+        check_number("camera.height_wobble", self.height_wobble, 0.0, self.height / 10.0)
+        check_number("camera.yaw_wobble_deg", self.yaw_wobble_deg, 0.0, 30.0)
+        check_number("camera.tilt_wobble_deg", self.tilt_wobble_deg, 0.0, 20.0)
+        check_number("camera.wobble_time", self.wobble_time, 0.0, 1e6, low_open=True)
+        check_number("camera.gimbal_bandwidth", self.gimbal_bandwidth, 0.0, 1000.0)
+        if isinstance(self.landmarks, (str, bytes)) or not isinstance(self.landmarks, Iterable):
+            raise TypeError(
+                "camera.landmarks must be a sequence of (x, y) ground positions in metres, e.g. "
+                f"((0.5, 0.5), (3.5, 0.5)), or () for none; got {self.landmarks!r}"
+            )
+        points = tuple(
+            check_pair(f"camera.landmarks[{i}]", point, low=-MAX_LENGTH, high=MAX_LENGTH)
+            for i, point in enumerate(self.landmarks)
+        )
+        if len(points) > MAX_LANDMARKS:
+            raise ValueError(
+                f"camera.landmarks must hold at most {MAX_LANDMARKS} positions (ArUco ids 1 to "
+                f"{MAX_LANDMARKS}), got {len(points)}"
+            )
+        object.__setattr__(self, "landmarks", points)
+
+    @property
+    def moves(self) -> bool:
+        """Whether the camera moves between pictures (a drift or a wobble is set)."""
+        return (
+            self.drift > 0.0
+            or self.height_wobble > 0.0
+            or self.yaw_wobble_deg > 0.0
+            or self.tilt_wobble_deg > 0.0
+        )
 
 
 @dataclass(frozen=True)
@@ -381,6 +448,12 @@ class EnvConfig:
                 f"{self.camera.tilt_deg} (the far edge of the arena would be behind the camera), "
                 f"got {self.camera.height} m"
             )
+        for i, (x, y) in enumerate(self.camera.landmarks):
+            if not (0.0 <= x <= self.arena_size[0] and 0.0 <= y <= self.arena_size[1]):
+                raise ValueError(
+                    f"camera.landmarks[{i}] must lie in the arena [0, {self.arena_size[0]:g}] x "
+                    f"[0, {self.arena_size[1]:g}] m, got ({x:g}, {y:g})"
+                )
         if self.observation.max_detections is not None and (
             self.observation.max_detections < self.n_robots
         ):

@@ -6,6 +6,7 @@ import functools
 import numbers
 import warnings
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -13,8 +14,9 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
-from anonloc_env.actions import stack_actions
+from anonloc_env.actions import check_action_array, stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture
+from anonloc_env.camera_motion import CameraMotion
 from anonloc_env.config import EnvConfig
 from anonloc_env.detection import detection_source
 from anonloc_env.geometry import wrap_angle
@@ -22,12 +24,39 @@ from anonloc_env.observation import ObservationBuilder, observation_space, space
 from anonloc_env.odometry import Interval, Odometry
 from anonloc_env.presets import PRESETS
 from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
+from anonloc_env.robot_view import Step
 from anonloc_env.schedule import PictureSchedule
-from anonloc_env.world import World, check_poses, random_poses
+from anonloc_env.world import WheelTravel, World, check_poses, random_poses
 
 RESET_OPTIONS = ("poses",)
 
 ObsDict = dict[str, dict[str, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class ArrayStep:
+    """One step of every robot as arrays (:meth:`AnonLocEnv.step_arrays`).
+
+    Attributes:
+        seen: what the robots observed, read back from the arrays their observations are built
+            from (:class:`anonloc_env.robot_view.Step`, the same bits as ``read_step`` of the
+            observation dicts).
+        rewards: ``(N,)`` float64, the values of ``step``'s rewards dict.
+        truncated: the episode is over (``max_cycles`` reached).
+        true_index: ``(N,)`` int64, read-only: each robot's row in the newest picture (-1: not
+            in it), the infos' ``true_index``. Ground truth, for scoring only.
+    """
+
+    seen: Step
+    rewards: np.ndarray
+    truncated: bool
+    true_index: np.ndarray
+
+
+def _frozen_int(values: np.ndarray) -> np.ndarray:
+    out = np.array(values, dtype=np.int64)
+    out.flags.writeable = False
+    return out
 
 
 class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
@@ -83,8 +112,10 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     `infos[agent]` holds ground truth about the newest picture, for scoring only: `true_index`
     (row of this robot in it, -1 if it was missed or no picture was taken yet), `pose` (the
     robot's true `(x, y, theta)` when it was taken, float64, m and rad; the pose at reset before
-    any picture) and `picture` (number of pictures taken so far). Every robot's current pose is
-    `env.state()`.
+    any picture), `picture` (number of pictures taken so far) and `camera_pose` (the camera's
+    true pose `(x, y, z, yaw, pitch, roll)` when it was taken, m and rad, read-only: it moves
+    with `camera.drift` and the wobbles, see `anonloc_env.camera_motion`). Every robot's current
+    pose is `env.state()`.
 
     ## Arguments
     `config` (an `EnvConfig`; `parallel_env` builds it from a preset and overrides),
@@ -130,6 +161,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.render_mode = render_mode
         self.reward_fn: RewardFunction = reward_fn if reward_fn is not None else InformationGain()
         self.camera = Camera(self.config)
+        self.camera_motion = CameraMotion(self.config)
+        """The camera's pose over the episode (a drone's hover; fixed unless the config says)."""
         if detector is not None and not callable(getattr(detector, "take", None)):
             raise TypeError(
                 "detector must have a take(poses, rng, time, index) method returning a Picture "
@@ -254,16 +287,15 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.pictures_taken = 0
         self.picture = None
         self.guesses = {}
+        self.camera_motion.reset(rng)
+        self.camera.move_to(self.camera_motion.pose if self.camera_motion.moves else None)
         if self._maybe_take_picture(0.0) is None:
             self._update_info_templates()
         self.reward_fn.reset(self.config, rng, self.picture)
         n = self.config.n_robots
+        self.builder.record(self.odometry.since_picture, 0.0)
         observations = self.builder.build(
-            self.agents,
-            self.odometry.since_picture,
-            np.zeros(n, bool),
-            self.picture is not None,
-            0.0,
+            self.agents, np.zeros(n, bool), self.picture is not None, 0.0
         )
         infos = self._infos()
         if self.render_mode == "human":
@@ -280,6 +312,39 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         dict[str, dict[str, Any]],
     ]:
         """Hold every robot's command for ``dt``, advance physics once, maybe take a picture."""
+        self._check_running()
+        # (N, 2) columns (v, w): to_commands with one multiplication instead of two.
+        commands = stack_actions(actions, self.agents)
+        agents = self.agents
+        motion, new_picture, time, reward_values, truncated = self._advance(commands)
+        observations = self.builder.build(agents, motion.contact, new_picture, time)
+        rewards = dict(zip(agents, reward_values.tolist(), strict=True))
+        terminations = self._all_false.copy()
+        truncations = self._all_true.copy() if truncated else self._all_false.copy()
+        infos = self._infos()
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def step_arrays(self, actions: np.ndarray) -> ArrayStep:
+        """:meth:`step` for callers that hold arrays, not per-agent dicts (the learning path:
+        ``agents.crew``): the same episode to the bit, with no dict built.
+
+        Args:
+            actions: ``(N, 2)`` actions in robot order (clipped to ``[-1, 1]``).
+
+        Raises:
+            ValueError: ``actions`` is not ``(N, 2)`` or holds a non-finite value.
+        """
+        self._check_running()
+        commands = check_action_array(actions, len(self.agents))
+        motion, new_picture, _, reward_values, truncated = self._advance(commands)
+        seen = self.builder.seen(new_picture, motion.contact)
+        if self.render_mode == "human":
+            self.render()
+        return ArrayStep(seen, reward_values, truncated, self._true_index)
+
+    def _check_running(self) -> None:
         if self.world is None:
             raise RuntimeError(
                 "step() called before reset(): call reset() first (a new env, or a copy made "
@@ -287,10 +352,13 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             )
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
+
+    def _advance(self, commands: np.ndarray) -> tuple[WheelTravel, bool, float, np.ndarray, bool]:
+        """One step from the clipped ``(N, 2)`` actions (scaled here, in place): the wheels'
+        motion, whether a picture was taken, the time, the rewards and whether the episode is
+        over (``self.agents`` is then emptied)."""
         world = self.world
         assert world is not None
-        # (N, 2) columns (v, w): to_commands with one multiplication instead of two.
-        commands = stack_actions(actions, self.agents)
         commands *= self._command_scale
         v, w = commands[:, 0], commands[:, 1]
         motion = world.step(v, w)
@@ -298,11 +366,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.steps += 1
         time = self.steps * self.config.dt
         between = self._maybe_take_picture(time)
-        agents = self.agents
         new_picture = between is not None
-        observations = self.builder.build(
-            agents, self.odometry.since_picture, motion.contact, new_picture, time
-        )
+        self.builder.record(self.odometry.since_picture, time)
         context = StepContext(
             config=self.config,
             time=time,
@@ -314,22 +379,18 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             observed=functools.partial(self.builder.seen, new_picture, motion.contact),
         )
         reward_values = np.asarray(self.reward_fn(context), dtype=np.float64)
-        rewards = dict(zip(agents, reward_values.tolist(), strict=True))
         truncated = self.steps >= self.max_cycles
-        terminations = self._all_false.copy()
-        truncations = self._all_true.copy() if truncated else self._all_false.copy()
-        infos = self._infos()
         if truncated:
             self.agents = []
-        if self.render_mode == "human":
-            self.render()
-        return observations, rewards, terminations, truncations, infos
+        return motion, new_picture, time, reward_values, truncated
 
     def _maybe_take_picture(self, time: float) -> Interval | None:
         """Take a picture if one is due; return the odometry interval it closes (or None)."""
         if not self.schedule.take_now(time):
             return None
         assert self.world is not None
+        if self.camera_motion.moves:
+            self.camera.move_to(self.camera_motion.advance(time, self.rng))
         picture = self.detector.take(self.world.poses, self.rng, time, self.pictures_taken)
         if picture.n_rows > self.capacity:
             raise ValueError(
@@ -351,11 +412,13 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         poses.flags.writeable = False
         count = self.pictures_taken
         if self.picture is not None:
-            rows = self.picture.true_index.tolist()
+            self._true_index = _frozen_int(self.picture.true_index)
         else:
-            rows = [-1] * self.config.n_robots
+            self._true_index = _frozen_int(np.full(self.config.n_robots, -1))
+        rows = self._true_index.tolist()
+        camera_pose = self.camera_motion.pose
         self._info_templates = [
-            {"true_index": row, "pose": pose, "picture": count}
+            {"true_index": row, "pose": pose, "picture": count, "camera_pose": camera_pose}
             for row, pose in zip(rows, list(poses), strict=True)
         ]
 

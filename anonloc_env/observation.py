@@ -119,6 +119,7 @@ class ObservationBuilder:
         self._between = _frozen(np.zeros((n, 3), np.float32))
         self._between_rows = list(self._between)
         self._odometry = _frozen(np.zeros((n, 3), np.float32))
+        self._time = 0.0
         self._flags = {
             True: _frozen(np.ones(1, np.float32)),
             False: _frozen(np.zeros(1, np.float32)),
@@ -163,16 +164,23 @@ class ObservationBuilder:
         self._history_odometry = _frozen(odo)
         self._history_rows = list(odo)
 
+    def record(self, odometry: np.ndarray, time: float) -> None:
+        """The step's own motion since the picture, ``odometry`` ``(N, 3)``, at ``time`` (s):
+        what :meth:`build` hands out and :meth:`seen` reads back (as float32)."""
+        self._odometry = _frozen(odometry.astype(np.float32))
+        self._time = time
+
     def build(
         self,
         agents: Sequence[str],
-        odometry: np.ndarray,
         bumper: np.ndarray,
         new_picture: bool,
         time: float,
     ) -> dict[str, dict[str, np.ndarray]]:
-        """Every agent's observation; ``agents`` are in robot order, ``odometry`` is ``(N, 3)``
-        and ``bumper`` ``(N,)`` bool."""
+        """Every agent's observation of the step :meth:`record` took in at ``time``; ``agents``
+        are in robot order, ``bumper`` is ``(N,)`` bool."""
+        if time != self._time:
+            raise ValueError(f"build({time}) after record({self._time}): record the step first")
         since = time - (self._picture_time if self._picture_time is not None else 0.0)
         since_arr = _frozen(np.array([since], np.float32))
         flag = self._flags[new_picture]
@@ -182,7 +190,6 @@ class ObservationBuilder:
         bumped = bumper.nonzero()[0].tolist()  # usually few robots
         if bumped:
             set_each(map(obs.__getitem__, bumped), "bumper", repeat(self._flags[True]))
-        self._odometry = _frozen(odometry.astype(np.float32))
         set_each(obs, "odometry", self._odometry)  # row views
         set_each(obs, "odometry_between", self._between_rows)  # rows changed at pictures only
         if self.history > 0:

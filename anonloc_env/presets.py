@@ -78,6 +78,37 @@ PRESETS: dict[str, EnvConfig] = {
 }
 """The named scenarios. ``default`` is the built-in scenario of the README's main job."""
 
+# A camera on a small drone 5 m above the default arena (docs/drone.md gives the sources): a
+# calm hover with vision positioning (DJI's hover accuracy of +-0.3 m horizontally and +-0.1 m
+# vertically read as three standard deviations), and gusts (three times the drift, faster).
+_DEFAULT_CAMERA = PRESETS["default"].camera
+PRESETS["drone-hover"] = dataclasses.replace(
+    PRESETS["default"],
+    camera=dataclasses.replace(
+        _DEFAULT_CAMERA,
+        drift=0.1,
+        drift_time=5.0,
+        height_wobble=0.033,
+        yaw_wobble_deg=0.5,
+        tilt_wobble_deg=1.0,
+        wobble_time=1.0,
+        gimbal_bandwidth=100.0,
+    ),
+)
+PRESETS["drone-windy"] = dataclasses.replace(
+    PRESETS["default"],
+    camera=dataclasses.replace(
+        _DEFAULT_CAMERA,
+        drift=0.25,
+        drift_time=2.0,
+        height_wobble=0.1,
+        yaw_wobble_deg=2.0,
+        tilt_wobble_deg=5.0,
+        wobble_time=0.5,
+        gimbal_bandwidth=100.0,
+    ),
+)
+
 
 def preset_names() -> list[str]:
     """The valid preset names."""

@@ -141,6 +141,11 @@ def expected_entropy(
         others: ``(R, S, 2)`` the other robots' possible displacements in their frames (m).
         geo: scale, noise and timing.
         ring_samples: points per ring where the heading is unknown.
+
+    Where every heading is known (the detector measures them), the rings are never used and
+    every landing point is the predicted one, so the densities are computed once instead of
+    ``ring_samples`` times (:func:`_densities_known`); the result is the same to the bit as the
+    general path's (:func:`_densities`), which ``tests/test_active.py`` checks.
     """
     s = geo.scale
     rho = s * np.hypot(own[..., 0], own[..., 1])  # (R, C)
@@ -154,37 +159,11 @@ def expected_entropy(
     cos, sin = np.cos(hyp.theta)[:, :, None], np.sin(hyp.theta)[:, :, None]
     dx, dy = s * own[:, None, :, 0], s * own[:, None, :, 1]
     mu = hyp.pos[:, :, None, :] + np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
-    # Where I land if I am h*: the point, or ring_samples points on the ring.
-    phi = 2.0 * math.pi * (np.arange(ring_samples) + 0.5) / ring_samples
-    circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (M, 2)
-    ring_points = hyp.pos[:, :, None, None, :] + rho[:, None, :, None, None] * circle
-    land = np.where(known[..., None, None], mu[:, :, :, None, :], ring_points)  # (R, K, C, M, 2)
-    # Density of "I am h'" at those points: (R, K*, K', C, M).
-    x = land[:, :, None]
-    v2 = var[:, None, :, :, None]
-    gap = x - mu[:, None, :, :, None, :]
-    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
-    off = x - hyp.pos[:, None, :, None, None, :]
-    r = np.hypot(off[..., 0], off[..., 1])
-    ring = np.exp(ring_loglik(r, np.broadcast_to(rho[:, None, None, :, None], r.shape), v2))
-    collide = np.where(known[:, None, :, :, None], gauss, ring).mean(axis=-1)  # (R, K*, K', C)
-    # Density of "I am h'" where the robot truly at h' goes: (R, K', C).
-    other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R, S)
-    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
-    vs = var[..., None]
-    mimic_known = np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)
-    mimic_ring = np.exp(
-        ring_loglik(
-            np.broadcast_to(other_len[:, None, None, :], vs.shape[:-1] + other_len.shape[-1:]),
-            np.broadcast_to(rho[:, None, :, None], vs.shape[:-1] + other_len.shape[-1:]),
-            vs,
-        )
-    )
-    mimic = np.where(known, mimic_known.mean(axis=-1), mimic_ring.mean(axis=-1))
-    # My own detection's density under the truth: (R, K*, C).
-    peak = np.where(
-        known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
-    )
+    geometry = (rho, var, mu, s)
+    if hyp.known.all():
+        collide, mimic, peak = _densities_known(hyp, own, others, geometry, ring_samples)
+    else:
+        collide, mimic, peak = _densities(hyp, own, others, geometry, ring_samples)
     base = geo.clutter / geo.p_detect
     ratio = (base + collide + mimic[:, None]) / (base + peak[:, :, None])  # (R, K*, K', C)
     k = hyp.weight.shape[1]
@@ -194,6 +173,139 @@ def expected_entropy(
     post /= np.maximum(post.sum(axis=2, keepdims=True), 1e-300)
     entropy = -(post * np.log(np.maximum(post, 1e-300))).sum(axis=2)  # (R, K*, C)
     return (hyp.weight[:, :, None] * entropy).sum(axis=1)
+
+
+Densities = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _densities(
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    ring_samples: int,
+) -> Densities:
+    """The general path: ``collide`` ``(R, K*, K', C)``, ``mimic`` ``(R, K', C)`` and ``peak``
+    ``(R, K*, C)`` (see the module doc), any heading known or not."""
+    rho, var, mu, s = geometry
+    known = hyp.known[:, :, None]  # (R, K, 1)
+    # Where I land if I am h*: the point, or ring_samples points on the ring.
+    phi = 2.0 * math.pi * (np.arange(ring_samples) + 0.5) / ring_samples
+    circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (M, 2)
+    ring_points = hyp.pos[:, :, None, None, :] + rho[:, None, :, None, None] * circle
+    land = np.where(known[..., None, None], mu[:, :, :, None, :], ring_points)  # (R, K, C, M, 2)
+    collide = _collide(hyp, land, mu, var, rho)
+    # Density of "I am h'" where the robot truly at h' goes: (R, K', C).
+    mimic = _mimic_known(own, others, var, s)
+    # Heading unknown at h' (of weight > 0: one of weight 0 weighs nothing): the ring's density.
+    at = np.nonzero(~hyp.known & (hyp.weight > 0.0))
+    if len(at[0]):
+        other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R or 1, S)
+        other_len = np.broadcast_to(other_len, (len(hyp.known), other_len.shape[-1]))
+        shape = (len(at[0]), rho.shape[1], other_len.shape[1])  # (Q, C, S)
+        ring = ring_loglik(
+            np.broadcast_to(other_len[at[0]][:, None, :], shape),
+            np.broadcast_to(rho[at[0]][:, :, None], shape),
+            var[at][:, :, None],
+        )
+        mimic[at] = np.exp(ring).mean(axis=-1)
+    # My own detection's density under the truth: (R, K*, C).
+    peak = np.where(
+        known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
+    )
+    return collide, mimic, peak
+
+
+def _collide(
+    hyp: Hypotheses, land: np.ndarray, mu: np.ndarray, var: np.ndarray, rho: np.ndarray
+) -> np.ndarray:
+    """``(R, K*, K', C)`` density of "I am h'" at the points ``land`` ``(R, K*, C, M, 2)`` where
+    I land if I am h*, averaged over the M points: the Gaussian around ``mu`` where the heading
+    at h' is known, the ring's density otherwise.
+
+    A known h* lands M times on ``mu``: its densities are computed once (at ``mu``, for every
+    h* alike, which is cheap) and averaged as M equal values; only the unknown h* of weight > 0
+    are computed on their M ring points (those of weight 0 keep the values at ``mu``: they
+    weigh nothing). The values that count are those of computing every point."""
+    pos, known = hyp.pos, hyp.known
+    at_mu = _density_at(  # axes (robot, h*, h', candidate)
+        mu[:, :, None],
+        mu[:, None],
+        var[:, None],
+        pos[:, None, :, None, :],
+        rho[:, None, None, :],
+        known[:, None, :, None],
+    )
+    collide = _mean_of_equal(at_mu, land.shape[3]).copy()
+    # The robots and h* whose heading is unknown, of weight > 0 (a hypothesis of weight 0
+    # weighs nothing in the expected entropy, whatever its densities).
+    ring = np.nonzero(~known & (hyp.weight > 0.0))
+    if len(ring[0]):
+        r = ring[0]
+        values = _density_at(  # axes (robot and h*, h', candidate, point)
+            land[ring][:, None],
+            mu[r][:, :, :, None, :],
+            var[r][:, :, :, None],
+            pos[r][:, :, None, None, :],
+            rho[r][:, None, :, None],
+            known[r][:, :, None, None],
+        )
+        collide[ring] = values.mean(axis=-1)
+    return collide
+
+
+def _density_at(
+    x: np.ndarray,
+    mu: np.ndarray,
+    v2: np.ndarray,
+    pos: np.ndarray,
+    rho: np.ndarray,
+    known: np.ndarray,
+) -> np.ndarray:
+    """Density of "I am h'" at the points ``x`` (``(..., 2)``): the Gaussian around ``mu`` of
+    variance ``v2`` where the heading at h' is ``known``, otherwise the ring of radius ``rho``
+    around the row ``pos`` (every argument broadcast against the others)."""
+    gap = x - mu
+    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
+    off = x - pos
+    r = np.hypot(off[..., 0], off[..., 1])
+    ring = np.exp(ring_loglik(r, np.broadcast_to(rho, r.shape), v2))
+    return np.where(known, gauss, ring)
+
+
+def _densities_known(
+    hyp: Hypotheses,
+    own: np.ndarray,
+    others: np.ndarray,
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    ring_samples: int,
+) -> Densities:
+    """:func:`_densities` where every heading is known: each landing point is ``mu``, so each
+    density is computed once and averaged as the general path averages its ``ring_samples``
+    equal values (the same sum, so the same bits)."""
+    _, var, mu, s = geometry
+    v2 = var[:, None]  # (R, 1, K', C)
+    gx = mu[:, :, None, :, 0] - mu[:, None, :, :, 0]
+    gy = mu[:, :, None, :, 1] - mu[:, None, :, :, 1]
+    gauss = np.exp(-0.5 * (gx**2 + gy**2) / v2) / (2.0 * math.pi * v2)  # (R, K*, K', C)
+    collide = _mean_of_equal(gauss, ring_samples)
+    mimic = _mimic_known(own, others, var, s)
+    return collide, mimic, 1.0 / (2.0 * math.pi * var)
+
+
+def _mimic_known(own: np.ndarray, others: np.ndarray, var: np.ndarray, s: float) -> np.ndarray:
+    """``(R, K', C)`` density of "I am h'" where the robot at h' goes, its heading known."""
+    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
+    vs = var[..., None]
+    return (np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)).mean(axis=-1)
+
+
+def _mean_of_equal(values: np.ndarray, count: int) -> np.ndarray:
+    """The mean of ``count`` copies of each value, summed as numpy sums them (exact, and thus
+    ``values`` itself, when ``count`` is a power of two)."""
+    if count & (count - 1) == 0:
+        return values
+    return np.broadcast_to(values[..., None], (*values.shape, count)).mean(axis=-1)
 
 
 class GreedyIdentification(Excitation):

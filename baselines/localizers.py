@@ -20,6 +20,7 @@ import numpy as np
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
+from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.rewards import InformationGain
 from baselines import angular, linear, matching, motion
 
@@ -119,6 +120,14 @@ class Localizer:
         self.scale = self.model.scale_bounds[1]
         self.sigma = math.hypot(self.model.pixel_noise, 1e-3)
         self.scale_gradient = survey(config).scale_gradient
+        # A moving camera: the corrected methods read each picture in the set point's frame (the
+        # faithful ones, as published, read the rows as they come).
+        prior = self.model.registration
+        self.registration = (
+            Registration(prior, self.model.orientation)
+            if prior is not None and mode == "corrected"
+            else None
+        )
         self.reset()
 
     def reset(self) -> None:
@@ -128,6 +137,8 @@ class Localizer:
         self.durations: list[float] = []
         self.estimate = np.full(self.n, -1, dtype=np.int64)
         self.belief = np.zeros((self.n, 0))
+        if self.registration is not None:
+            self.registration.reset()
 
     def on_picture(self, rows: np.ndarray, interval: Interval | None, duration: float) -> None:
         """Take in a picture and update ``estimate`` and ``belief``.
@@ -140,6 +151,8 @@ class Localizer:
                 paper's faithful angular and linear methods read it).
             duration: the time since the previous picture (s; 0 at the first).
         """
+        if self.registration is not None:
+            rows = self.registration.register(rows)
         self.pictures = [*self.pictures[-2:], rows]
         if interval is not None:
             self.intervals = [*self.intervals[-1:], interval]

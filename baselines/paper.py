@@ -11,7 +11,6 @@ is also scored at the 4th picture.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +22,7 @@ from baselines.localizers import BayesLocalizer
 from baselines.paper_noise import SCALE_USED, xy_disagreement
 from baselines.registry import POLICIES, make_team
 from baselines.runner import EpisodeResult, run_episode
+from baselines.statistics import wilson
 
 
 @dataclass(frozen=True)
@@ -155,18 +155,6 @@ def deviations(method: str, result: EpisodeResult) -> np.ndarray:
     return np.where(seen, out, np.nan)
 
 
-def wilson(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval (95 % by default) of a success rate, as fractions."""
-    if trials == 0:
-        return (0.0, 1.0)
-    p = successes / trials
-    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
-    half = (
-        z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
-    )
-    return (max(0.0, centre - half), min(1.0, centre + half))
-
-
 @dataclass(frozen=True)
 class Rate:
     """A success rate with its 95 % Wilson interval (fractions) and counts."""
@@ -181,7 +169,7 @@ class Rate:
 
     @property
     def interval(self) -> tuple[float, float]:
-        """95 % Wilson interval."""
+        """95 % Wilson interval (:func:`baselines.statistics.wilson`)."""
         return wilson(self.successes, self.trials)
 
     def __str__(self) -> str:

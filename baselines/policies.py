@@ -97,7 +97,11 @@ class Team:
         :meth:`~baselines.excitations.Excitation.on_picture` (told what the team's localizer
         now believes, a :class:`~baselines.steps.BeliefView`).
         """
-        step = read_step(observations)
+        return self.take(read_step(observations))
+
+    def take(self, step: Step) -> Step:
+        """:meth:`observe` for a step already gathered (``AnonLocEnv.step_arrays``'s ``seen``:
+        the same bits, without the per-robot dicts); returns ``step``."""
         interval = self.log.observe(step)
         if step.new_picture:
             first = self.pictures_seen == 0

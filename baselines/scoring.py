@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from baselines.runner import EpisodeResult
+from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
 
 
 def pictures_to_identify(
@@ -81,24 +82,6 @@ def first_identified(
 
 
 @dataclass(frozen=True)
-class Interval95:
-    """A mean and its confidence interval.
-
-    Attributes:
-        mean: the sample mean (nan without samples).
-        low: lower bound of the interval.
-        high: upper bound.
-    """
-
-    mean: float
-    low: float
-    high: float
-
-    def __str__(self) -> str:
-        return f"{self.mean:.3g} [{self.low:.3g}, {self.high:.3g}]"
-
-
-@dataclass(frozen=True)
 class IdentificationSummary:
     """:func:`pictures_to_identify` over several episodes.
 
@@ -109,6 +92,9 @@ class IdentificationSummary:
         energy: mean wheel travel per robot until then (m; mean and interval).
         pictures_all: the same over every episode, one that never reached the fraction counted
             at one past its last picture (a lower bound for it: a censored mean).
+        median: the Kaplan-Meier median picture with its interval, an episode that never
+            reached the fraction censored at its last picture
+            (:func:`baselines.statistics.km_median`).
     """
 
     episodes: int
@@ -116,28 +102,7 @@ class IdentificationSummary:
     pictures: Interval95
     energy: Interval95
     pictures_all: Interval95
-
-
-def bootstrap_mean(
-    values: Sequence[float], confidence: float = 0.95, resamples: int = 10_000, seed: int = 0
-) -> Interval95:
-    """The mean of ``values`` with a percentile-bootstrap interval (seeded, so reproducible).
-
-    Raises:
-        ValueError: ``confidence`` outside (0, 1) or ``resamples`` < 1.
-    """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    if resamples < 1:
-        raise ValueError(f"resamples must be >= 1, got {resamples}")
-    x = np.asarray(values, dtype=np.float64)
-    if len(x) == 0:
-        return Interval95(math.nan, math.nan, math.nan)
-    rng = np.random.default_rng(seed)
-    means = x[rng.integers(0, len(x), size=(resamples, len(x)))].mean(axis=1)
-    tail = (1.0 - confidence) / 2.0
-    low, high = np.quantile(means, [tail, 1.0 - tail])
-    return Interval95(float(x.mean()), float(low), float(high))
+    median: SurvivalMedian
 
 
 def summarize(
@@ -146,17 +111,18 @@ def summarize(
     confidence: float = 0.95,
     localizer: str = "",
 ) -> IdentificationSummary:
-    """:func:`pictures_to_identify` of each episode, summarised with bootstrap intervals."""
+    """:func:`pictures_to_identify` of each episode, summarised with bootstrap intervals and
+    the Kaplan-Meier median."""
     scores = [pictures_to_identify(r, fraction, localizer) for r in results]
     reached = [(p, e) for p, e in scores if p is not None]
-    censored = [
-        p if p is not None else 1 + max((rec.picture for rec in r.records), default=-1)
-        for (p, _), r in zip(scores, results, strict=True)
-    ]
+    last = [max((rec.picture for rec in r.records), default=0) for r in results]
+    censored = [p if p is not None else 1 + end for (p, _), end in zip(scores, last, strict=True)]
+    times = [p if p is not None else end for (p, _), end in zip(scores, last, strict=True)]
     return IdentificationSummary(
         episodes=len(results),
         identified=len(reached),
         pictures=bootstrap_mean([p for p, _ in reached], confidence),
         energy=bootstrap_mean([e for _, e in reached], confidence),
         pictures_all=bootstrap_mean(censored, confidence),
+        median=km_median(times, [p is not None for p, _ in scores], confidence),
     )

@@ -8,6 +8,8 @@ from their own generator). For each condition and excitation it reports, over al
 
 * pictures to 99 %: the censored mean (an episode that never gets there counts at its last
   picture, ``--pictures``), with a 95 % bootstrap interval;
+* pictures to 99 %: the Kaplan-Meier median (an episode that never gets there is censored at
+  its last picture), with its 95 % interval (``inf``: the data bound it only from below);
 * the share of episodes that reach 99 %;
 * energy to 99 %: mean wheel travel per robot until that picture (censored the same way), m;
 * confident decisions wrong: decisions (belief >= 0.99) on a row that is not the robot's, over
@@ -44,7 +46,8 @@ from baselines.excitations.code import CentralizedCode
 from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
-from baselines.scoring import Interval95, bootstrap_mean, pictures_to_identify
+from baselines.scoring import pictures_to_identify
+from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
 from benchmarks.agent_conditions import evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
@@ -60,14 +63,18 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
     firsts, energies = zip(*(censored(r, pictures) for r in results), strict=True)
     decided = sum(rec.estimate >= 0 for r in results for rec in r.records)
     wrong = sum(rec.estimate >= 0 and not rec.correct for r in results for rec in r.records)
-    reached = sum(pictures_to_identify(r)[0] is not None for r in results)
+    reached = [pictures_to_identify(r)[0] is not None for r in results]
     mean = bootstrap_mean(firsts)
     spent = bootstrap_mean(energies)
+    median = km_median(firsts, reached)
     return {
         "pictures": mean.mean,
         "low": mean.low,
         "high": mean.high,
-        "reached": reached,
+        "median": median.median,
+        "median_low": median.low,
+        "median_high": median.high,
+        "reached": sum(reached),
         "episodes": len(results),
         "energy": spent.mean,
         "energy_low": spent.low,
@@ -105,6 +112,14 @@ def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Exc
     return out
 
 
+def median_text(row: dict[str, Any]) -> str:
+    """A row's Kaplan-Meier median and interval, as the tables print them."""
+    median = SurvivalMedian(
+        row["median"], row["median_low"], row["median_high"], int(row["episodes"]), 0
+    )
+    return str(median)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="bundled", help="a saved agent, or 'bundled'")
@@ -125,8 +140,8 @@ def main() -> None:
     names = args.conditions or list(conditions)
     rows = []
     print(
-        "| condition | excitation | pictures to 99 % | reached | energy (m) | wrong | limit |"
-        "\n|---|---|---|---|---|---|---|"
+        "| condition | excitation | pictures to 99 % | KM median | reached | energy (m) | wrong "
+        "| limit |\n|---|---|---|---|---|---|---|---|"
     )
     for name in names:
         config, condition, budget = conditions[name]
@@ -147,7 +162,8 @@ def main() -> None:
             rows.append(row)
             print(
                 f"| {name} | {excitation} | {row['pictures']:.2f} [{row['low']:.2f}, "
-                f"{row['high']:.2f}] | {row['reached']}/{row['episodes']} | {row['energy']:.2f} "
+                f"{row['high']:.2f}] | {median_text(row)} | {row['reached']}/{row['episodes']} "
+                f"| {row['energy']:.2f} "
                 f"| {100 * row['wrong']:.2f} % | {limit.information:.2f} / {limit.union:.2f} |",
                 flush=True,
             )
@@ -165,10 +181,11 @@ def print_ratios(rows: Sequence[dict[str, Any]], base: str = "uniform") -> None:
     print(f"\n| condition | agent / {base}, pictures [95 %] | energy [95 %] |\n|---|---|---|")
     for (condition, excitation), row in found.items():
         other = found.get((condition, base))
-        if excitation != "agent" or other is None or len(other["firsts"]) != len(row["firsts"]):
+        if excitation != "agent" or other is None:
             continue
-        pictures = paired_ratio(row["firsts"], other["firsts"])
-        energy = paired_ratio(row["energies"], other["energies"])
+        n = min(len(row["firsts"]), len(other["firsts"]))  # the seeds both played
+        pictures = paired_ratio(row["firsts"][:n], other["firsts"][:n])
+        energy = paired_ratio(row["energies"][:n], other["energies"][:n])
         print(f"| {condition} | {pictures} | {energy} |", flush=True)
 
 

@@ -117,9 +117,9 @@ def main() -> None:
         extra["agent"] = lambda seed: LearnedExcitation(model)
     print(
         "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) "
-        "| pictures, all episodes | s |"
+        "| pictures, all episodes | Kaplan-Meier median | s |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in args.robots:
         for condition in args.conditions:
             table = run(
@@ -129,7 +129,7 @@ def main() -> None:
             for name, (s, seconds) in table.items():
                 print(
                     f"| {n} | {condition} | {name} | {s.identified}/{s.episodes} | {s.pictures} "
-                    f"| {s.energy} | {s.pictures_all} | {seconds:.0f} |",
+                    f"| {s.energy} | {s.pictures_all} | {s.median} | {seconds:.0f} |",
                     flush=True,
                 )
 

@@ -48,9 +48,9 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, Interval, SensorModel
 from anonloc_env.identify.model import push_isotropic
 from baselines.localizers import Localizer, Motion3Localizer
-from baselines.paper import wilson
 from baselines.policies import Team
 from baselines.runner import run_episode
+from baselines.statistics import wilson
 
 THRESHOLD = 0.99
 BINS = np.array([0.0, 0.5, 0.8, 0.9, 0.95, 0.99, 0.999, 1.0 + 1e-12])

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.paper import wilson
+from baselines.statistics import wilson
 
 #: Bins with fewer robot-pictures are left out (their interval spans the whole axis).
 MIN_COUNT = 30

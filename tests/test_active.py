@@ -9,6 +9,7 @@ import pytest
 
 import anonloc_env
 import baselines
+from baselines import active
 from baselines.active import (
     GreedyIdentification,
     GreedySettings,
@@ -20,7 +21,8 @@ from baselines.active import (
 from baselines.excitations import DistinctMotion, SwarmDuty
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, PictureRecord, run_episode
-from baselines.scoring import bootstrap_mean, pictures_to_identify, summarize
+from baselines.scoring import pictures_to_identify, summarize
+from baselines.statistics import bootstrap_mean
 
 
 def _config(n: int = 10) -> anonloc_env.EnvConfig:
@@ -78,6 +80,8 @@ def test_summary_counts_and_interval() -> None:
     assert s.energy.mean == 2.0
     # Every episode: the one that never got there counts at one past its last picture (1).
     assert s.pictures_all.mean == (1 + 2 + 3 + 1) / 4
+    # Kaplan-Meier: events at 1, 2, 3, one censored at 0 (its last picture): S(2) = 1/3.
+    assert (s.median.median, s.median.reached, s.median.episodes) == (2.0, 3, 4)
     assert bootstrap_mean([4.0, 4.0]).low == 4.0
 
 
@@ -167,3 +171,90 @@ def test_works_as_swarm_deviation(name: str) -> None:
     if isinstance(own, GreedyIdentification):
         assert own.following
         assert np.all(np.abs(own.v) <= own.settings.speed[1] + 1e-12)
+
+
+@pytest.mark.parametrize("ring_samples", [8, 5])
+def test_known_headings_fast_path_equals_the_general_path(ring_samples: int) -> None:
+    """Where every heading is known, ``expected_entropy`` computes each density once instead of
+    on every ring point: the densities are the general path's to the bit."""
+    rng = np.random.default_rng(7)
+    r, k, c, s = 5, 6, 8, 15
+    weight = rng.random((r, k))
+    hyp = Hypotheses(
+        weight=weight / weight.sum(axis=1, keepdims=True),
+        pos=rng.uniform(0.0, 200.0, (r, k, 2)),
+        theta=rng.uniform(-math.pi, math.pi, (r, k)),
+        theta_var=rng.uniform(1e-4, 1e-2, (r, k)),
+        known=np.ones((r, k), bool),
+    )
+    own = unicycle(rng.uniform(0.1, 0.5, (r, c)), rng.uniform(-1, 1, (r, c)), 0.5)
+    others = unicycle(rng.uniform(0.1, 0.5, (1, s)), rng.uniform(-1, 1, (1, s)), 0.5)
+    rho = GEO.scale * np.hypot(own[..., 0], own[..., 1])
+    var = rng.uniform(1.0, 4.0, (r, k, c))
+    mu = hyp.pos[:, :, None, :] + rng.normal(0.0, 10.0, (r, k, c, 2))
+    geometry = (rho, var, mu, GEO.scale)
+    general = active._densities(hyp, own, others, geometry, ring_samples)
+    fast = active._densities_known(hyp, own, others, geometry, ring_samples)
+    for a, b in zip(general, fast, strict=True):
+        np.testing.assert_array_equal(np.broadcast_to(b, a.shape), a)
+
+
+def _random_hypotheses(rng: np.random.Generator, r: int, k: int) -> Hypotheses:
+    weight = rng.random((r, k)) * (rng.random((r, k)) < 0.7)
+    weight = -np.sort(-weight, axis=1)  # as GreedyIdentification sorts them: zeros last
+    return Hypotheses(
+        weight=weight / np.maximum(weight.sum(axis=1, keepdims=True), 1e-300),
+        pos=rng.uniform(0.0, 200.0, (r, k, 2)),
+        theta=rng.uniform(-math.pi, math.pi, (r, k)),
+        theta_var=rng.uniform(1e-4, 1e-1, (r, k)),
+        known=rng.random((r, k)) < 0.4,
+    )
+
+
+def test_collide_equals_every_point_computed() -> None:
+    """The general path computes a known h* once and skips the ring points of h* of weight 0:
+    where the weight counts, the values are those of every landing point computed and
+    averaged."""
+    rng = np.random.default_rng(3)
+    r, k, c, m = 6, 5, 7, 8
+    hyp = _random_hypotheses(rng, r, k)
+    rho = rng.uniform(1.0, 60.0, (r, c))
+    var = rng.uniform(1.0, 9.0, (r, k, c))
+    mu = hyp.pos[:, :, None, :] + rng.normal(0.0, 20.0, (r, k, c, 2))
+    phi = 2.0 * math.pi * (np.arange(m) + 0.5) / m
+    circle = np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+    ring_points = hyp.pos[:, :, None, None, :] + rho[:, None, :, None, None] * circle
+    known = hyp.known[:, :, None, None, None]
+    land = np.where(known, mu[:, :, :, None, :], ring_points)
+    every = active._density_at(  # axes (robot, h*, h', candidate, point): all computed
+        land[:, :, None],
+        mu[:, None, :, :, None, :],
+        var[:, None, :, :, None],
+        hyp.pos[:, None, :, None, None, :],
+        rho[:, None, None, :, None],
+        hyp.known[:, None, :, None, None],
+    ).mean(axis=-1)
+    fast = active._collide(hyp, land, mu, var, rho)
+    counts = (hyp.weight > 0)[:, :, None, None] | hyp.known[:, :, None, None]
+    np.testing.assert_array_equal(np.where(counts, fast, 0.0), np.where(counts, every, 0.0))
+
+
+def test_hypotheses_of_weight_zero_change_nothing() -> None:
+    """Padding hypotheses (weight 0) may sit anywhere, headings known or not: the expected
+    entropy is the same to the bit."""
+    rng = np.random.default_rng(5)
+    hyp = _random_hypotheses(rng, 8, 6)
+    zero = hyp.weight == 0
+    assert zero.any()
+    moved = Hypotheses(
+        hyp.weight,
+        np.where(zero[..., None], rng.uniform(0.0, 200.0, hyp.pos.shape), hyp.pos),
+        hyp.theta,
+        hyp.theta_var,
+        np.where(zero, ~hyp.known, hyp.known),
+    )
+    own = unicycle(rng.uniform(0.1, 0.5, (8, 8)), rng.uniform(-1, 1, (8, 8)), 0.5)
+    others = unicycle(rng.uniform(0.1, 0.5, (8, 15)), rng.uniform(-1, 1, (8, 15)), 0.5)
+    np.testing.assert_array_equal(
+        expected_entropy(moved, own, others, GEO), expected_entropy(hyp, own, others, GEO)
+    )

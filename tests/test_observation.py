@@ -48,7 +48,7 @@ def test_ground_truth_is_in_infos_and_never_in_observations() -> None:
         obs, _, _, _, infos = env.step(actions)
         for agent in env.agents:
             assert set(obs[agent]) == KEYS | HISTORY_KEYS
-            assert set(infos[agent]) == {"true_index", "pose", "picture"}
+            assert set(infos[agent]) == {"true_index", "pose", "picture", "camera_pose"}
         shared = (KEYS | HISTORY_KEYS) - OWN
         for key in shared:
             assert all(obs[a][key] is obs["robot_0"][key] for a in env.agents), key

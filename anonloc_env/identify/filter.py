@@ -12,6 +12,7 @@ import numpy as np
 
 from anonloc_env.identify import kernels
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
+from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.likelihood import Pairs, Scoring
@@ -51,6 +52,10 @@ class Identifier:
         self.log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
         # float32 observations limit what "noise free" can mean: a floor on the heading noise.
         self.scoring = Scoring(model, self.log_pd, model.orientation_noise**2 + 1e-10)
+        # A moving camera: each picture mapped into the set point's frame first (camera_pose).
+        self.registration = (
+            Registration(model.registration, model.orientation) if model.registration else None
+        )
         self.reset()
 
     def reset(self) -> None:
@@ -68,6 +73,8 @@ class Identifier:
         self._shares: tuple[np.ndarray, ...] | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
+        if self.registration is not None:
+            self.registration.reset()
 
     def _pixel_var(self, rows: np.ndarray) -> float:
         """The pixel variance, floored: float32 observations limit what "noise free" can mean."""
@@ -83,6 +90,8 @@ class Identifier:
             interval: each robot's motion since the previous picture; ignored for the first one.
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+        if self.registration is not None:
+            rows = self.registration.register(rows)
         n_rows = len(rows)
         log_bg = log_background(self.model, n_rows)
         if self.rows is None or interval is None:

@@ -12,6 +12,11 @@ import numpy as np
 from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import CameraConfig, EnvConfig
+from anonloc_env.identify.camera_pose import (
+    RegistrationPrior,
+    registered_pixel_noise,
+    registration_prior,
+)
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -59,6 +64,10 @@ class SensorModel:
         others_turn: standard deviation per component of the change of a repeated displacement
             per unit of its length (turns, speed changes), >= 0. ``from_config`` sets
             :data:`OTHERS_TURN`.
+        registration: the camera's motion when it moves and no landmarks register its pictures
+            (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
+            the set point's frame first, and ``from_config`` adds the registration's error to
+            ``pixel_noise``. ``None``: a fixed (or landmark-registered) camera.
     """
 
     scale: float | None
@@ -77,6 +86,7 @@ class SensorModel:
     others_repeat: float = 0.0
     others_jitter: float = 0.0
     others_turn: float = 0.0
+    registration: RegistrationPrior | None = None
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -133,7 +143,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
         scale_spread=camera.scale_spread,
-        pixel_noise=cam.pixel_noise,
+        pixel_noise=registered_pixel_noise(config, cam.pixel_noise),
         orientation=cam.orientation,
         orientation_noise=math.radians(cam.orientation_noise_deg),
         p_detect=1.0 - cam.p_miss,
@@ -146,6 +156,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         others_repeat=OTHERS_REPEAT,
         others_jitter=OTHERS_JITTER,
         others_turn=OTHERS_TURN,
+        registration=registration_prior(config),
     )
 
 

@@ -430,16 +430,17 @@ def _leave_out_sums(w: np.ndarray, w_end: float, w_new: float) -> np.ndarray:
     skip_row = np.repeat(np.arange(-1, n_a), n_b + 1)  # one variant per (row, column) left out
     skip_col = np.tile(np.arange(-1, n_b), n_a + 1)
     masks = np.arange(1 << n_b)
-    f = np.zeros((n_c, len(skip_row), 1 << n_b))
+    n_v = len(skip_row)
+    f = np.zeros((n_c, n_v, 1 << n_b))
     f[:, :, 0] = 1.0
     for r in range(n_a):
         active = skip_row != r
         g = np.where(active[None, :, None], f * w_end, f)
         for q in np.flatnonzero(w[:, r, :].any(axis=0)).tolist():  # columns with an edge
-            bit = 1 << q
-            free = masks[(masks & bit) == 0]
+            # The masks without bit q and the same with it, as views: mask = (high, bit, low).
+            shape = (n_c, n_v, 1 << (n_b - q - 1), 2, 1 << q)
             weight = w[:, r, q][:, None] * (active & (skip_col != q))[None, :]
-            g[:, :, free | bit] += f[:, :, free] * weight[:, :, None]
+            g.reshape(shape)[:, :, :, 1] += f.reshape(shape)[:, :, :, 0] * weight[:, :, None, None]
         f = g
     used = np.zeros(1 << n_b, dtype=np.int64)
     for q in range(n_b):

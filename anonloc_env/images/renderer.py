@@ -50,7 +50,6 @@ class ImageRenderer:
         self._template_to_robot = np.array(
             [[0.0, -metres, metres * centre], [-metres, 0.0, metres * centre], [0.0, 0.0, 1.0]]
         )
-        self._world_to_pixels = self.frame.matrix @ self.camera.homography
         self._background = np.full(self.frame.shape, FLOOR, np.uint8)
         self._gradient: np.ndarray | None = None
         if cam.image_gradient > 0.0:
@@ -77,7 +76,7 @@ class ImageRenderer:
         cam = self.config.camera
         image = self._background.copy()
         rows, cols = image.shape
-        m = self._world_to_pixels
+        m = self.frame.matrix @ self.camera.homography  # the pose of this picture
         for x, y, theta in np.asarray(poses, dtype=np.float64):
             c, s = math.cos(theta), math.sin(theta)
             pose = np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])

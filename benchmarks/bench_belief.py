@@ -1,0 +1,154 @@
+"""The belief env (``agents.vec.AnonLocVecEnv``, what ``anonloc train`` learns on) against an
+older checkout of anonloc, alternated in one run.
+
+Run from the repository root, with an older commit checked out elsewhere::
+
+    git worktree add /work/old-main 9b13f2a
+    python benchmarks/bench_belief.py --old /work/old-main             # about 10 minutes
+    python benchmarks/bench_belief.py --old /work/old-main --robots 30 --copies 4 --rounds 5
+    python benchmarks/bench_belief.py --old /work/old-main --train 2  # anonloc train, mixed
+    python benchmarks/bench_belief.py --old /work/old-main --robots 10 30 100 300 1000 \
+        --copies 1 --rounds 1 --growth                                # cost against N
+
+Each measurement is a fresh interpreter (``PYTHONPATH`` set to one checkout or the other) that
+builds the env (``--copies`` copies of the ``default`` scenario with N robots, the ``team``
+reward; at N = 30 with clutter: 8 % misses and 2 false positives per picture), resets it with
+seed 0, takes one untimed step, then steps it with uniform random candidate choices until
+``--seconds`` have passed, and prints the decisions per second (slots x steps / s). The two
+checkouts run one after the other, in an order that alternates between rounds; the figures are
+medians over the rounds and the ratio is the median of the per-round ratios, so that a slow spell
+of the shared machine weighs on both sides.
+
+``--train R`` measures ``anonloc train`` instead: the bundled run's configuration
+(``benchmarks.train_bundled.BUNDLED``: the ``mixed`` condition, 12 env copies, the ``team``
+reward, PPO with its hyperparameters and the candidate scorer, one torch thread), one untimed
+rollout, then ``PPO.learn`` over R rollouts (collection and updates): decisions per second with
+the network included.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+WORKER = """
+import sys, time
+import numpy as np
+from anonloc_env import make_config
+from agents.vec import AnonLocVecEnv
+n, copies, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[4])
+clutter = sys.argv[3] == "1"
+camera = {"p_miss": 0.08, "false_positives": 2.0} if clutter else {}
+vec = AnonLocVecEnv(make_config(n_robots=n, camera=camera), n_envs=copies, reward="team")
+vec.seed(0)
+vec.reset()
+rng = np.random.default_rng(0)
+def step():
+    vec.step_async(rng.integers(0, 8, vec.num_envs))
+    vec.step_wait()
+step()
+steps, start = 0, time.perf_counter()
+while time.perf_counter() - start < seconds or steps < 2:
+    step()
+    steps += 1
+print(steps * vec.num_envs / (time.perf_counter() - start))
+"""
+
+
+TRAIN = """
+import sys, time
+import torch
+from agents.train import build_model, make_vec_env
+from benchmarks.train_bundled import BUNDLED
+torch.set_num_threads(1)
+rollouts = int(sys.argv[1])
+vec = make_vec_env(BUNDLED)
+model = build_model(BUNDLED, vec)
+per_rollout = model.n_steps * vec.num_envs
+model.learn(total_timesteps=per_rollout)  # untimed: the first reset and rollout
+start = time.perf_counter()
+model.learn(total_timesteps=rollouts * per_rollout, reset_num_timesteps=False)
+print(rollouts * per_rollout / (time.perf_counter() - start))
+"""
+
+
+def rate(checkout: Path, code: str, args: list[str]) -> float:
+    """Decisions per second that ``code`` prints, run in a fresh interpreter on ``checkout``."""
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    out = subprocess.run(
+        [sys.executable, "-c", code, *args],
+        env=env,
+        cwd=checkout,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--old", type=Path, required=True, help="the older checkout")
+    parser.add_argument("--new", type=Path, default=Path.cwd(), help="this checkout (default)")
+    parser.add_argument("--robots", type=int, nargs="+", default=[10, 30, 100, 300])
+    parser.add_argument("--copies", type=int, nargs="+", default=[4, 12])
+    parser.add_argument("--rounds", type=int, default=3, help="alternations (medians)")
+    parser.add_argument("--seconds", type=float, default=4.0, help="timed stepping per run")
+    parser.add_argument(
+        "--train",
+        type=int,
+        default=0,
+        metavar="ROLLOUTS",
+        help="instead: PPO.learn of the bundled run (mixed condition, 12 copies, network "
+        "included, one torch thread) over this many rollouts after an untimed one",
+    )
+    parser.add_argument(
+        "--growth", action="store_true", help="also fit how a decision's cost grows with N"
+    )
+    args = parser.parse_args()
+    sides = {"old": args.old.resolve(), "new": args.new.resolve()}
+    if args.train:
+        alternate(sides, args.rounds, TRAIN, [str(args.train)], "anonloc train (mixed)")
+        return
+    print("| N | copies | clutter | old decisions/s | new decisions/s | new / old |")
+    print("|---:|---:|---|---:|---:|---:|")
+    medians: dict[str, list[float]] = {"old": [], "new": []}
+    for n in args.robots:
+        for copies in args.copies:
+            clutter = n == 30
+            label = f"{n} | {copies} | {'8 % misses, 2 FP' if clutter else 'none'}"
+            work = [str(n), str(copies), "1" if clutter else "0", str(args.seconds)]
+            for side, value in alternate(sides, args.rounds, WORKER, work, label).items():
+                medians[side].append(value)
+    if args.growth:
+        robots = np.repeat(args.robots, len(args.copies))
+        for side, values in medians.items():
+            # decisions/s ~ N^-b: the cost of one decision grows as N^b.
+            slope = np.polyfit(np.log(robots), np.log(values), 1)[0]
+            print(f"\n{side}: one decision costs ~ N^{-slope:.2f} (least squares, log-log)")
+
+
+def alternate(
+    sides: dict[str, Path], rounds: int, code: str, args: list[str], label: str
+) -> dict[str, float]:
+    """Run ``code`` on the old and new checkouts ``rounds`` times each, alternating which goes
+    first, and print a table row: the medians and the median of the per-round ratios. Returns
+    the medians."""
+    rates: dict[str, list[float]] = {"old": [], "new": []}
+    for r in range(rounds):
+        for side in ("old", "new") if r % 2 == 0 else ("new", "old"):
+            rates[side].append(rate(sides[side], code, args))
+    ratio = statistics.median(b / a for a, b in zip(rates["old"], rates["new"], strict=True))
+    old, new = (statistics.median(rates[side]) for side in ("old", "new"))
+    print(f"| {label} | {old:,.0f} | {new:,.0f} | {ratio:.2f}x |", flush=True)
+    return {"old": old, "new": new}
+
+
+if __name__ == "__main__":
+    main()

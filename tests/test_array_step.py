@@ -1,0 +1,63 @@
+"""``AnonLocEnv.step_arrays``: the learning path's step, with no per-agent dict, is ``step``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import anonloc_env
+from anonloc_env.robot_view import read_step
+
+NOISY = {
+    "n_robots": 7,
+    "picture_interval": 0.3,
+    "max_cycles": 120,
+    "camera": {"pixel_noise": 1.0, "p_miss": 0.1, "false_positives": 1.5},
+    "robot": {"odometry_noise": 0.02},
+    "schedule": {"jitter": 0.1},
+}
+
+
+def test_step_arrays_is_step_to_the_bit() -> None:
+    """Same seed and actions: what the robots observed (as ``read_step`` reads the dicts), the
+    rewards, the truncation and the infos' ``true_index`` are equal to the bit, to the end."""
+    by_dict = anonloc_env.AnonLocEnv(anonloc_env.make_config(**NOISY))
+    by_array = anonloc_env.AnonLocEnv(anonloc_env.make_config(**NOISY))
+    by_dict.reset(seed=11)
+    by_array.reset(seed=11)
+    actions = np.random.default_rng(0).uniform(-1.2, 1.2, (120, 7, 2)).astype(np.float32)
+    pictures = 0
+    for a in actions:
+        obs, rewards, _, truncations, infos = by_dict.step(
+            dict(zip(by_dict.agents, a, strict=True))
+        )
+        result = by_array.step_arrays(a)
+        seen = read_step([obs[agent] for agent in by_dict.possible_agents])
+        for field in ("rows", "odometry", "bumper", "between"):
+            np.testing.assert_array_equal(getattr(result.seen, field), getattr(seen, field))
+        assert (result.seen.new_picture, result.seen.interval) == (seen.new_picture, seen.interval)
+        np.testing.assert_array_equal(result.rewards, list(rewards.values()))
+        assert result.truncated == all(truncations.values())
+        assert result.true_index.tolist() == [i["true_index"] for i in infos.values()]
+        pictures += seen.new_picture
+    assert pictures > 10
+    assert result.truncated
+    assert by_array.agents == []
+    np.testing.assert_array_equal(by_array.state(), by_dict.state())
+
+
+def test_step_arrays_checks_its_actions_before_any_change() -> None:
+    env = anonloc_env.AnonLocEnv(anonloc_env.make_config(n_robots=3))
+    env.reset(seed=0)
+    before = env.state()
+    with pytest.raises(ValueError, match=r"\(3, 2\) numeric array"):
+        env.step_arrays(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"\(3, 2\) numeric array"):
+        env.step_arrays(np.array([["a", "b"]] * 3))
+    with pytest.raises(ValueError, match="robot 1 is not finite"):
+        env.step_arrays(np.array([[0.0, 0.0], [np.nan, 0.0], [0.0, 0.0]]))
+    np.testing.assert_array_equal(env.state(), before)
+    assert env.steps == 0
+    actions = np.full((3, 2), 3.0)
+    env.step_arrays(actions)
+    assert (actions == 3.0).all()  # clipped in a copy, not in the caller's array

@@ -1,0 +1,188 @@
+"""The camera on a drone: its seeded hover, the truth in infos only, refused configs."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+import anonloc_env
+from anonloc_env.camera import Camera
+from anonloc_env.camera_motion import CameraMotion, pose_homography, set_point
+from anonloc_env.identify.camera_pose import Registration, registration_prior
+from anonloc_env.landmarks import border_landmarks
+from anonloc_env.rewards import EnergyCost
+
+
+def _camera_path(preset: str, seed: int, steps: int = 120) -> list[np.ndarray]:
+    env = anonloc_env.parallel_env(preset, n_robots=6)
+    _, infos = env.reset(seed=seed)
+    path = [infos["robot_0"]["camera_pose"]]
+    still = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    for _ in range(steps):
+        _, _, _, _, infos = env.step(still)
+        path.append(infos["robot_0"]["camera_pose"])
+    return path
+
+
+def test_same_seed_same_camera_path_and_another_seed_another() -> None:
+    first, again = _camera_path("drone-windy", 3), _camera_path("drone-windy", 3)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    other = _camera_path("drone-windy", 4)
+    assert not np.array_equal(first[-1], other[-1])
+
+
+def test_fixed_camera_stays_at_its_set_point() -> None:
+    config = anonloc_env.make_config("default", n_robots=6)
+    path = _camera_path("default", 0, steps=30)
+    assert all(np.array_equal(p, set_point(config)) for p in path)
+
+
+def test_the_set_point_is_the_fixed_camera() -> None:
+    config = anonloc_env.make_config(camera={"tilt_deg": 12.0, "height": 6.0})
+    np.testing.assert_allclose(
+        pose_homography(config, set_point(config)), Camera(config).homography, atol=1e-9
+    )
+
+
+def test_camera_pose_is_in_infos_never_in_observations() -> None:
+    moving = anonloc_env.parallel_env("drone-windy", n_robots=5)
+    fixed = anonloc_env.parallel_env("default", n_robots=5)
+    obs, infos = moving.reset(seed=1)
+    assert moving.observation_space("robot_0") == fixed.observation_space("robot_0")
+    pose = infos["robot_2"]["camera_pose"]
+    assert pose.shape == (6,)
+    assert not pose.flags.writeable
+    for agent in moving.agents:
+        for value in obs[agent].values():
+            for component in pose:
+                assert not np.isclose(np.asarray(value, np.float64), component, rtol=1e-6).any()
+
+
+def test_the_picture_moves_with_the_camera_and_robots_leave_the_view() -> None:
+    env = anonloc_env.parallel_env("drone-windy", n_robots=16, camera={"drift": 0.5})
+    env.reset(seed=2)
+    still = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    rows, missing = [], 0
+    for _ in range(400):
+        env.step(still)
+        if env.steps % 20 == 0:
+            rows.append(np.sort(env.picture.detections[:, 0]))
+            missing += int((env.picture.true_index < 0).sum())
+    # Robots stand still, yet the picture moves (and with p_miss = 0 only leaving the view misses).
+    assert missing > 0
+    spread = np.std([r[0] for r in rows])
+    assert spread > 5.0
+
+
+def test_gimbal_leaves_the_fast_part_of_the_tilt() -> None:
+    config = anonloc_env.make_config(
+        camera={"tilt_wobble_deg": 4.0, "wobble_time": 0.5, "gimbal_bandwidth": 2.0}
+    )
+    motion = CameraMotion(config)
+    rng = np.random.default_rng(0)
+    motion.reset(rng)
+    rolls = [motion.advance(0.7 * k, rng)[5] for k in range(1, 4000)]
+    tau_g = 1.0 / (2.0 * math.pi * 2.0)
+    expected = math.radians(4.0) * math.sqrt(tau_g / (0.5 + tau_g))
+    assert np.std(rolls) == pytest.approx(expected, rel=0.08)
+
+
+def test_drift_has_its_standard_deviation_and_correlation_time() -> None:
+    config = anonloc_env.make_config(camera={"drift": 0.2, "drift_time": 3.0})
+    motion = CameraMotion(config)
+    rng = np.random.default_rng(1)
+    motion.reset(rng)
+    xs = np.array([motion.advance(1.0 * k, rng)[0] for k in range(1, 6000)]) - 2.0
+    assert np.std(xs) == pytest.approx(0.2, rel=0.1)
+    lag1 = np.corrcoef(xs[:-1], xs[1:])[0, 1]
+    assert lag1 == pytest.approx(math.exp(-1.0 / 3.0), abs=0.03)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "range_text"),
+    [
+        ("drift", -0.1, "[0, 100]"),
+        ("drift_time", 0.0, "(0, 1e+06]"),
+        ("height_wobble", 0.6, "[0, 0.5]"),
+        ("yaw_wobble_deg", 31.0, "[0, 30]"),
+        ("tilt_wobble_deg", 25.0, "[0, 20]"),
+        ("wobble_time", -1.0, "(0, 1e+06]"),
+        ("gimbal_bandwidth", 2000.0, "[0, 1000]"),
+    ],
+)
+def test_bad_camera_motion_is_refused_naming_field_and_range(
+    field: str, value: float, range_text: str
+) -> None:
+    with pytest.raises(ValueError, match=re.escape(f"camera.{field} must be in {range_text}")):
+        anonloc_env.make_config(camera={field: value})
+
+
+def test_landmarks_outside_the_arena_are_refused() -> None:
+    with pytest.raises(ValueError, match=r"camera\.landmarks\[1\] must lie in the arena"):
+        anonloc_env.make_config(camera={"landmarks": ((0.5, 0.5), (9.0, 0.5))})
+
+
+def _set_point_view(env: anonloc_env.AnonLocEnv) -> np.ndarray:
+    """Where the camera at its set point would see the robots now (image units)."""
+    xy = env.world.poses[:, :2]
+    h = env.camera.set_point @ np.column_stack([xy, np.ones(len(xy))]).T
+    return (h[:2] / h[2]).T
+
+
+def test_landmarks_rectify_the_picture_into_the_set_points_frame() -> None:
+    arena = (3.0, 3.0)
+    config = anonloc_env.make_config(
+        "drone-windy",
+        n_robots=9,
+        arena_size=arena,
+        camera={"pixel_noise": 0.0, "landmarks": border_landmarks(arena)},
+    )
+    env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
+    env.reset(seed=7)
+    still = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    for _ in range(100):
+        env.step(still)
+    picture = env.picture
+    seen = picture.true_index >= 0
+    assert picture.landmarks is not None
+    assert len(picture.landmarks) >= 4
+    np.testing.assert_allclose(
+        picture.detections[picture.true_index[seen], :2], _set_point_view(env)[seen], atol=1e-6
+    )
+
+
+def test_registration_without_landmarks_follows_the_camera() -> None:
+    """Robots standing still: the picture moves only with the camera (by several pixels from
+    one picture to the next), and the identifier's registration holds every robot's registered
+    place to within a pixel of its place in the previous picture."""
+    config = anonloc_env.make_config(
+        "drone-hover", n_robots=25, arena_size=(5.0, 5.0), camera={"pixel_noise": 0.0}
+    )
+    prior = registration_prior(config)
+    assert prior is not None
+    registration = Registration(prior)
+    env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
+    env.reset(seed=3)
+    still = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    raw_moves, registered_moves = [], []
+    previous = None
+    for _ in range(300):
+        env.step(still)
+        picture = env.picture
+        if previous is not None and picture.index == previous[0]:
+            continue
+        registered = registration.register(picture.detections)
+        place = {i: registered[r, :2] for i, r in enumerate(picture.true_index) if r >= 0}
+        raw = {i: picture.detections[r, :2] for i, r in enumerate(picture.true_index) if r >= 0}
+        if previous is not None:
+            both = sorted(set(place) & set(previous[1]))
+            registered_moves.append(max(np.abs(place[i] - previous[1][i]).max() for i in both))
+            raw_moves.append(max(np.abs(raw[i] - previous[2][i]).max() for i in both))
+        previous = (picture.index, place, raw)
+    assert np.mean(raw_moves) > 2.0  # the camera moved the picture
+    # The first interval has nothing to predict the robots' motion with: from the second on,
+    # their standing still is known.
+    assert max(registered_moves[1:]) < 1.0
