@@ -232,7 +232,7 @@ def saved_spec(path: Path) -> AgentSpec | None:
 
 def check_saved(path: Path, saved: AgentSpec) -> None:
     """Refuse the agent at ``path`` (of spec ``saved``) when it would see this anonloc's
-    observations differently (:meth:`AgentSpec.differences`).
+    observations differently (:meth:`agents.spec.AgentSpec.differences`).
 
     Raises:
         ValueError: naming what differs.

@@ -35,7 +35,7 @@ ObsDict = dict[str, dict[str, np.ndarray]]
 
 @dataclass(frozen=True)
 class ArrayStep:
-    """One step of every robot as arrays (:meth:`AnonLocEnv.step_arrays`).
+    """One step of every robot as arrays (:meth:`anonloc_env.env.AnonLocEnv.step_arrays`).
 
     Attributes:
         seen: what the robots observed, read back from the arrays their observations are built
