@@ -31,9 +31,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from baselines.excitations.base import Excitation
-from baselines.excitations.candidates import GreedySettings
-from baselines.excitations.distinct import BackOff
+from baselines.excitations.candidates import GreedySettings, HeldCommand
 from baselines.steps import BeliefView, Step
 
 #: Alphabet size of the code (a prime).
@@ -70,7 +68,7 @@ def codewords(robots: int, symbols: int, pictures: int) -> np.ndarray:
     return np.asarray((powers @ coefficients) % symbols, np.int64)
 
 
-class CentralizedCode(Excitation):
+class CentralizedCode(HeldCommand):
     """Robot ``i`` drives codeword ``i`` of a designed code (see the module documentation): a
     reference that knows every identity, not an excitation anonymous robots can run.
 
@@ -80,29 +78,19 @@ class CentralizedCode(Excitation):
     """
 
     def __init__(self, symbols: int = SYMBOLS, settings: GreedySettings | None = None) -> None:
-        super().__init__()
         if not (
             isinstance(symbols, int)
             and symbols >= 2
             and all(symbols % k for k in range(2, symbols))
         ):
             raise ValueError(f"symbols must be a prime >= 2, got {symbols!r}")
+        super().__init__(settings)
         self.symbols = symbols
-        self.settings = settings or GreedySettings()
-        self.backoff = BackOff(self.settings.back)
-        self.following = False
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
-        self.v = np.zeros(self.n)
-        self.w = np.zeros(self.n)
-        self.following = False
         self.picture = 0
         self.code = codewords(self.n, self.symbols, self.symbols)
-        self.backoff.reset(rngs)
-
-    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
-        self.following = True
 
     def on_picture(self, step: Step, view: BeliefView) -> None:
         s = self.settings
@@ -111,6 +99,3 @@ class CentralizedCode(Excitation):
         chosen = letters[self.code[self.picture % self.symbols]]
         self.v, self.w = chosen[:, 0].copy(), chosen[:, 1].copy()
         self.picture += 1
-
-    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        return self.backoff.commands(step, dt, lambda hit: (self.v, self.w))
