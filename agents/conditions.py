@@ -27,7 +27,8 @@ class ConditionRanges:
 
     Attributes:
         robots: numbers of robots, one drawn per copy.
-        density: robots per square metre, ``(low, high)`` (drawn log-uniform).
+        density: robots per square metre, ``(low, high)`` (drawn log-uniform; up to 6, crowds
+            where most robots touch another in most intervals, ``docs/crowds.md``).
         pixel_noise: detection noise (image units, ``(low, high)``).
         p_headings: probability that the camera detects headings.
         p_clutter: probability of a picture with misses and false positives.
@@ -40,7 +41,7 @@ class ConditionRanges:
     """
 
     robots: tuple[int, ...] = TRAINING_ROBOTS
-    density: tuple[float, float] = (0.5, 4.0)
+    density: tuple[float, float] = (0.5, 6.0)
     pixel_noise: tuple[float, float] = (0.5, 2.0)
     p_headings: float = 0.25
     p_clutter: float = 0.4

@@ -29,7 +29,13 @@ from pathlib import Path
 from typing import Any
 
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
-from agents.run_folder import RunLock, interrupt_on_sigterm, read_config, write_config
+from agents.run_folder import (
+    RunLock,
+    interrupt_on_sigterm,
+    read_config,
+    set_aside_logs,
+    write_config,
+)
 from agents.spec import CONDITIONS, IDENTITY_TERMS, AgentSpec, Reward
 from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
@@ -321,7 +327,10 @@ def resume(
         if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
             # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
             # the run starts again from step 0 rather than being a dead end.
-            say(f"no checkpoint in {directory / 'checkpoints'}: training the run from step 0")
+            kept = set_aside_logs(directory)
+            moved = "" if kept is None else f" (the earlier logs are kept in {kept})"
+            where = directory / "checkpoints"
+            say(f"no checkpoint in {where}: training the run from step 0{moved}")
             return _learn(config, directory, None)
         return _learn(config, directory, latest_checkpoint(directory, notify=notify))
 

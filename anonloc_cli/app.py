@@ -237,7 +237,10 @@ def render(
     scenario: ShownScenario = None,
     policy: ShownPolicy = "bayes",
     seed: EpisodeSeed = 0,
-    steps: Annotated[int, typer.Option(min=1, help="Control steps to play.")] = 200,
+    steps: Annotated[
+        int,
+        typer.Option(min=1, help="Control steps to play (at most the scenario's max_cycles)."),
+    ] = 200,
     fps: Annotated[
         float, typer.Option(min=0.1, help="Frames per second of simulated time.")
     ] = 20.0,
@@ -258,6 +261,7 @@ def render(
 
         command.check_output(out, human)
         resolved = _shown(scenario, set_ or [])
+        command.check_steps(steps, resolved)
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.main(
@@ -276,9 +280,7 @@ def detect(
             "grid: image_pixels_per_unit, image_size, principal_point."
         ),
     ],
-    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else .csv.")] = Path(
-        "detections.csv"
-    ),
+    out: OutTable = Path("detections.csv"),
     skip_bad: Annotated[
         bool,
         typer.Option(
@@ -315,10 +317,10 @@ def frame(
         int,
         typer.Option(
             min=0,
-            help="Control steps before the frame (default: just after the second picture, "
-            "while some guesses are still wrong).",
+            help="Control steps before the frame (default: the moment the second picture is "
+            "taken, while some robots are still undecided). At most the scenario's max_cycles.",
         ),
-    ] = 30,
+    ] = 20,
     set_: Sets = None,
     preset: Annotated[
         str | None, typer.Option(hidden=True, help="Deprecated: use --scenario.")
@@ -339,6 +341,7 @@ def frame(
             scenario = preset
         command.check_png(out)
         resolved = _shown(scenario, set_ or [])
+        command.check_steps(steps, resolved)
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)

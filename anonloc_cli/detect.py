@@ -18,6 +18,15 @@ Columns of the output (one row per detection; a frame without detections has non
 * ``frame``: the frame's number;
 * ``u``, ``v``: the marker's centre (image units, ``v`` up);
 * ``theta``: its heading in the image (rad, in [-pi, pi); 0 if ``camera.orientation`` is false).
+
+With ground landmarks in the camera file (``camera.landmarks``: their ground positions, ArUco ids
+1, 2, ... while the robots wear id 0; see ``docs/drone.md``), a camera that moves (on a drone)
+is located in every frame: the landmarks' corners give the frame's homography
+(``cv2.findHomography``), the robots' rows are rectified into the frame of the camera's set
+point (the camera file's own pose), and one more column says which row is what:
+
+* ``landmark``: -1 for a robot; ``k`` for the k-th landmark (``u``, ``v`` its centre as seen,
+  ``theta`` 0). A frame with fewer than two landmarks keeps its robots' rows as seen.
 """
 
 from __future__ import annotations
@@ -31,15 +40,16 @@ from anonloc_cli.console import echo, progress
 from anonloc_cli.scenarios import InputError, Scenario
 
 FRAME_SUFFIXES = (".png", ".jpg", ".jpeg")
-OUT_SUFFIXES = (".csv", ".parquet")
 TYPES = {"frame": "int64", "u": "float64", "v": "float64", "theta": "float64"}
 """Columns and their types (for Parquet)."""
 
 
 def check_output(out: Path) -> None:
-    """Refuse an output format the command cannot write, before any work."""
-    if out.suffix.lower() not in OUT_SUFFIXES:
-        raise InputError(f"--out must end in one of {list(OUT_SUFFIXES)}, got {str(out)!r}")
+    """Refuse an output format the command cannot write, before any work (the same rule as
+    ``bench`` and ``eval``: :func:`anonloc_cli.options.check_table_suffix`)."""
+    from anonloc_cli.options import check_table_suffix
+
+    check_table_suffix(out)
 
 
 def frame_files(folder: Path) -> list[Path]:
@@ -112,6 +122,38 @@ def read_frame(cv2: Any, path: Path, shape: tuple[int, int]) -> Any:
     return image
 
 
+def frame_rows(config: Any, detector: Any, image: Any, index: int) -> list[dict[str, Any]]:
+    """One frame's output rows: its robots (rectified by its landmarks, if the camera has
+    some), then its landmarks."""
+    import numpy as np
+
+    from anonloc_env.camera import Camera, Picture, rectified
+    from anonloc_env.images.detector import corners_to_rows
+    from anonloc_env.images.marker import MARKER_ID
+    from anonloc_env.images.pose import landmark_pose
+
+    ids, corners = detector.markers(image)
+    found = corners_to_rows(corners[ids == MARKER_ID], detector.frame)
+    if not config.camera.orientation:
+        found[:, 2] = 0.0
+    landmarks = config.camera.landmarks
+    out = [{"frame": index, "u": u, "v": v, "theta": t} for u, v, t in found.tolist()]
+    if not landmarks:
+        return out
+    which, centres, estimated = landmark_pose(config, detector.frame, ids, corners)
+    if estimated is not None:
+        picture = Picture(found, np.zeros(0, np.int64), 0.0, index, config.camera.orientation)
+        fixed = rectified(config, picture, which, centres, Camera(config).set_point, estimated)
+        out = [
+            {"frame": index, "u": u, "v": v, "theta": t} for u, v, t in fixed.detections.tolist()
+        ]
+    for row in out:
+        row["landmark"] = -1
+    for k, (u, v) in zip(which.tolist(), centres.tolist(), strict=True):
+        out.append({"frame": index, "u": u, "v": v, "theta": 0.0, "landmark": k})
+    return out
+
+
 def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool, skip_bad: bool = False) -> int:
     """Detect the markers in every frame of ``folder``; write the rows to ``out``."""
     from anonloc_env.images import MarkerDetector, pixel_frame
@@ -141,15 +183,7 @@ def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool, skip_bad: bo
                 skipped.append(str(error))
                 bar.update()
                 continue
-            for u, v, theta in detector.detect(image).tolist():
-                rows.append(
-                    {
-                        "frame": index,
-                        "u": u,
-                        "v": v,
-                        "theta": theta if config.camera.orientation else 0.0,
-                    }
-                )
+            rows.extend(frame_rows(config, detector, image, index))
             bar.update()
     record = provenance.provenance(
         {camera.name: config_to_dict(config)},
@@ -158,10 +192,11 @@ def main(folder: Path, camera: Scenario, out: Path, *, quiet: bool, skip_bad: bo
         skipped_frames=skipped,
         pixels_per_unit=grid.pixels_per_unit,
     )
+    types = {**TYPES, "landmark": "int64"} if config.camera.landmarks else TYPES
     if out.suffix.lower() == ".parquet":
-        store.write_parquet(out, rows, TYPES, record)
+        store.write_parquet(out, rows, types, record)
     else:
-        store.write_csv(out, rows, list(TYPES))
+        store.write_csv(out, rows, list(types))
     store.write_json(store.meta_path(out), record)
     wall = time.perf_counter() - start
     used = len(files) - len(skipped)

@@ -31,6 +31,20 @@ REID_BELIEF = 0.9
 REID_PICTURES = 5
 #: The blackout starts here (s), when every robot has long been identified.
 BLACKOUT_START = 5.0
+#: Robots in the ``density`` sweep (enough that most are away from the walls at 6 per m^2).
+CROWD_ROBOTS = 30
+
+
+#: The ``drift`` sweep's camera besides its drift: the ``drone-hover`` preset's wobbles and gimbal
+#: (plain data here: the CLI's help must not import the env).
+DRONE_WOBBLES = {
+    "drift_time": 5.0,
+    "height_wobble": 0.033,
+    "yaw_wobble_deg": 0.5,
+    "tilt_wobble_deg": 1.0,
+    "wobble_time": 1.0,
+    "gimbal_bandwidth": 100.0,
+}
 
 
 @dataclass(frozen=True)
@@ -135,6 +149,19 @@ SWEEPS: dict[str, Sweep] = {
             log_x=True,
         ),
         Sweep(
+            "drift",
+            "A camera on a hovering drone: horizontal drift (drone-hover's wobbles, no landmarks)",
+            "camera drift std (m, per axis; correlation time 5 s)",
+            (0, 0.025, 0.05, 0.1, 0.2, 0.4),
+        ),
+        Sweep(
+            "density",
+            f"Crowding: {CROWD_ROBOTS} robots, no detected headings (docs/crowds.md)",
+            "robots per square metre (0.2 m robots)",
+            (0.25, 0.5, 1, 2, 4, 6),
+            log_x=True,
+        ),
+        Sweep(
             "blackout",
             f"Identified again after a blackout from t = {BLACKOUT_START:g} s (5 % odometry noise)",
             "blackout duration (s)",
@@ -164,6 +191,12 @@ def overrides(sweep: Sweep, x: float) -> dict[str, Any]:
         out["camera"] = {"p_miss": float(x)}
     elif sweep.name == "false-positives":
         out["camera"] = {"false_positives": float(x)}
+    elif sweep.name == "drift":
+        out["camera"] = {**DRONE_WOBBLES, "drift": float(x)} if x > 0 else {}
+    elif sweep.name == "density":
+        side = round(math.sqrt(CROWD_ROBOTS / float(x)), 3)
+        out = {"n_robots": CROWD_ROBOTS, "arena_size": [side, side]}
+        out["camera"] = {"orientation": False}
     elif sweep.name == "blackout":
         extra_time = float(x)
         out["robot"] = {"odometry_noise": 0.05}

@@ -282,12 +282,19 @@ class Camera:
 
 
 def rectified(
-    config: EnvConfig, picture: Picture, ids: np.ndarray, uv: np.ndarray, set_point: np.ndarray
+    config: EnvConfig,
+    picture: Picture,
+    ids: np.ndarray,
+    uv: np.ndarray,
+    set_point: np.ndarray,
+    estimated: np.ndarray | None = None,
 ) -> Picture:
-    """``picture`` with its rows mapped into the set point's frame through the homography that
-    the landmarks ``ids`` seen at ``uv`` give (the set point itself if fewer than 2 are seen)."""
-    world = np.asarray(config.camera.landmarks, dtype=np.float64).reshape(-1, 2)[ids]
-    estimated = fit_homography(world, uv)
+    """``picture`` with its rows mapped into the set point's frame through the homography
+    ``estimated`` or, if ``None``, the one the landmarks ``ids`` seen at ``uv`` give (the set point
+    itself if fewer than 2 are seen)."""
+    if estimated is None:
+        world = np.asarray(config.camera.landmarks, dtype=np.float64).reshape(-1, 2)[ids]
+        estimated = fit_homography(world, uv)
     if estimated is None:
         estimated = set_point
     rows = rectify(picture.detections, estimated, set_point)

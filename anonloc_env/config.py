@@ -360,6 +360,10 @@ class RewardConfig:
             check_number("reward.turn_cost", self.turn_cost, 0.0, MAX_WEIGHT)
 
 
+#: The most ``step()`` calls an episode may last (:attr:`EnvConfig.max_cycles`).
+MAX_CYCLES = 1_000_000
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """The whole task: arena, robots, camera, picture schedule, observation and reward.
@@ -373,7 +377,9 @@ class EnvConfig:
         dt: control step (s), in (0, 10]: a command is held this long; physics advances once per
             ``step()`` (sub-stepped internally so nothing tunnels, at most 1000 sub-steps: see
             :class:`RobotConfig`).
-        max_cycles: number of ``step()`` calls before every agent is truncated, in [1, inf).
+        max_cycles: number of ``step()`` calls before every agent is truncated, in
+            [1, 1000000] (:data:`MAX_CYCLES`: 50,000 s of simulated time at the default ``dt``;
+            a longer episode is a hang, not an experiment).
         robot: see :class:`RobotConfig`.
         camera: see :class:`CameraConfig`.
         schedule: see :class:`ScheduleConfig`.
@@ -398,7 +404,7 @@ class EnvConfig:
         object.__setattr__(self, "arena_size", arena)
         check_number("dt", self.dt, 0.0, 10.0, low_open=True)
         object.__setattr__(self, "dt", float(self.dt))
-        check_number("max_cycles", self.max_cycles, 1, integer=True)
+        check_number("max_cycles", self.max_cycles, 1, MAX_CYCLES, integer=True)
         object.__setattr__(self, "max_cycles", int(self.max_cycles))
         for name, cls in SECTIONS.items():
             if not isinstance(getattr(self, name), cls):

@@ -8,7 +8,8 @@
 Every policy is built for the scenario it runs in (``env``, or ``config=`` an ``EnvConfig`` or a
 preset name): the localizers' sensor model comes from it. Without one, ``make`` raises.
 
-Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown) and ``bayes``, and those
+Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown), ``bayes`` and ``mlp``
+(learned, :mod:`baselines.mlp`), and those
 other packages register (``agent``, from ``agents``): :mod:`baselines.registry`. See
 :mod:`baselines.localizers` for the maths and :mod:`baselines.excitations` for the motions.
 """

@@ -282,7 +282,10 @@ class MotionLocalizer(Localizer):
         interval = self.intervals[-1]
         if self.mode == "faithful":
             dev = motion.faithful_deviation(first[:, :2], second[:, :2], interval.d, self.scale)
-            self._set_from_deviation(dev.min(axis=1))
+            # A first picture without rows (every robot out of a moving camera's view): no
+            # row of the second continues one.
+            best = dev.min(axis=1) if dev.shape[1] else np.full((self.n, len(second)), np.inf)
+            self._set_from_deviation(best)
             return
         orientation = self.model.orientation_noise if self.model.orientation else None
         sigma = self._sigma(interval)

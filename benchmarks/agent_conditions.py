@@ -47,3 +47,25 @@ def evaluation_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str,
     headings = _camera(scenario(100, pictures), orientation=True)
     out["headings N=100"] = (headings, "free", SWARM_BUDGET)
     return out
+
+
+#: Robots per square metre of the crowded conditions (docs/crowds.md).
+CROWD_DENSITY = 4.0
+
+
+def crowded_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str, float]]:
+    """The crowded conditions (issue 23), by name, as :func:`evaluation_conditions` gives its
+    own: N = 20 and 100 (never drawn in training) at :data:`CROWD_DENSITY` robots per m², free
+    motion, otherwise the same.
+    ``benchmarks.agent_eval`` runs them when named (``--conditions "crowd N=20"``), beside the
+    eight of issue 17.
+
+    Raises:
+        ValueError: ``pictures`` < 1.
+    """
+    if not (isinstance(pictures, int) and pictures >= 1):
+        raise ValueError(f"pictures must be an integer >= 1, got {pictures!r}")
+    return {
+        f"crowd N={n}": (scenario(n, pictures, CROWD_DENSITY), "free", SWARM_BUDGET)
+        for n in (20, 100)
+    }

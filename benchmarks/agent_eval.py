@@ -48,7 +48,7 @@ from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
 from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
-from benchmarks.agent_conditions import evaluation_conditions
+from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
 #: The centralized reference (``baselines.excitations.code.CentralizedCode``: knows identities).
@@ -138,6 +138,7 @@ def main() -> None:
     built = makers(args.agent, args.excitations)
     conditions = evaluation_conditions()
     names = args.conditions or list(conditions)
+    conditions |= crowded_conditions()  # run when named
     rows = []
     print(
         "| condition | excitation | pictures to 99 % | KM median | reached | energy (m) | wrong "

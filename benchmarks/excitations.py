@@ -44,9 +44,10 @@ NAMES = ("random", "distinct", "greedy")
 CONDITIONS = ("free", "swarm")
 
 
-def scenario(n: int, pictures: int) -> EnvConfig:
-    """N robots, one per square metre, 1 px of noise, no headings, ``pictures`` seconds long."""
-    side = math.sqrt(n)
+def scenario(n: int, pictures: int, density: float = 1.0) -> EnvConfig:
+    """N robots, ``density`` per square metre (one by default), 1 px of noise, no headings,
+    ``pictures`` seconds long."""
+    side = math.sqrt(n / density)
     return anonloc_env.make_config(
         n_robots=n,
         arena_size=(side, side),

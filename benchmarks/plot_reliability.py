@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -30,22 +31,14 @@ def _x(belief: np.ndarray) -> np.ndarray:
     return -np.log10(np.maximum(1.0 - belief, CLOSEST))
 
 
-def plot(results: list[dict[str, Any]], out: str) -> None:
-    """Draw the diagram of every scenario in ``results`` into ``out`` (PNG)."""
-    try:
-        import matplotlib
-    except ImportError as error:  # pragma: no cover - depends on the install
-        raise ImportError(
-            "the reliability diagram needs matplotlib: pip install anonloc[cli]"
-        ) from error
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axis = plt.subplots(figsize=(6.0, 4.6), constrained_layout=True)
+def draw(axis: Any, curves: Sequence[tuple[str, Sequence[Sequence[float]]]], title: str) -> None:
+    """One reliability curve per ``(label, rows)`` of ``curves`` on ``axis``: rows as
+    ``identify_quality.reliability`` gives them (low, high, count, share right, mean belief);
+    bins with fewer than :data:`MIN_COUNT` robot-pictures are left out."""
     ticks = np.array([0.0, 0.5, 0.9, 0.99, 0.999, 0.9999])
     axis.plot(_x(ticks), _x(ticks), color="0.6", lw=1, ls="--", label="calibrated")
-    for i, result in enumerate(results):
-        rows = [r for r in result["reliability"] if r[2] >= MIN_COUNT]
+    for i, (label, all_rows) in enumerate(curves):
+        rows = [r for r in all_rows if r[2] >= MIN_COUNT]
         if not rows:
             continue
         count = np.array([r[2] for r in rows])
@@ -64,16 +57,32 @@ def plot(results: list[dict[str, Any]], out: str) -> None:
             ms=4,
             capsize=3,
             color=f"C{i}",
-            label=f"{result['scenario']} ({int(count.sum())} robot-pictures)",
+            label=f"{label} ({int(count.sum()):,} robot-pictures)",
         )
     labels = [f"{t:g}" for t in ticks]
     axis.set_xticks(_x(ticks), labels)
     axis.set_yticks(_x(ticks), labels)
     axis.set_xlabel("top belief (bin mean)")
     axis.set_ylabel("top row right (95 % Wilson)")
-    axis.set_title("Bayesian identifier: reliability")
+    axis.set_title(title)
     axis.legend(fontsize=8, loc="upper left")
     axis.grid(alpha=0.3)
+
+
+def plot(results: list[dict[str, Any]], out: str) -> None:
+    """Draw the diagram of every scenario in ``results`` into ``out`` (PNG)."""
+    try:
+        import matplotlib
+    except ImportError as error:  # pragma: no cover - depends on the install
+        raise ImportError(
+            "the reliability diagram needs matplotlib: pip install anonloc[cli]"
+        ) from error
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(6.0, 4.6), constrained_layout=True)
+    curves = [(r["scenario"], r["reliability"]) for r in results]
+    draw(axis, curves, "Bayesian identifier: reliability")
     figure.savefig(out, dpi=110)
     plt.close(figure)
 

@@ -65,3 +65,17 @@ def test_plot_writes_a_png(tmp_path: Path) -> None:
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     config, condition, budget = evaluation_conditions()["swarm N=10"]
     assert limits(["swarm N=10"])["swarm N=10"] == picture_limit(config, condition, budget)
+
+
+def test_the_crowded_conditions() -> None:
+    from benchmarks.agent_conditions import CROWD_DENSITY, crowded_conditions
+
+    conditions = crowded_conditions()
+    assert list(conditions) == ["crowd N=20", "crowd N=100"]
+    for config, condition, _ in conditions.values():
+        width, height = config.arena_size
+        assert config.n_robots / (width * height) == pytest.approx(CROWD_DENSITY)
+        assert condition == "free"
+        assert not config.camera.orientation
+    with pytest.raises(ValueError, match="pictures must be an integer >= 1"):
+        crowded_conditions(0)

@@ -15,7 +15,8 @@ pictures every row moves by the camera's change plus its robot's own displacemen
 unknown to the others but bounded, persistent from one interval to the next, and of zero mean
 over many robots. So, at each picture:
 
-1. the rows are mapped through the previous picture's transform, and each is matched to the row
+1. the rows are mapped through the previous picture's transform, shifted by the offset most
+   pairs of rows agree on (a mean shift over the pairs within reach), and each is matched to the row
    of the previous (registered) picture it continues, predicted one displacement on (the robot
    keeps its motion, as :mod:`anonloc_env.identify.others` models it; less the similarity all
    displacements share, which holds the registration's own error), mutual nearest neighbours within
@@ -203,7 +204,8 @@ class Registration:
             registered = apply(self.transform, self.prior.centre, rows)
             self._remember(registered, None, None)
             return registered
-        transform = self.transform
+        transform = self.transform.copy()
+        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]))
         pairs = None
         for _ in range(2):
             pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]))
@@ -223,6 +225,28 @@ class Registration:
         length = np.hypot(motion[:, 0], motion[:, 1])
         sigma = np.where(known, np.hypot(fixed, per_length * length), self.prior.spread)
         return self._previous + motion, sigma
+
+    def _coarse_shift(self, moved: np.ndarray) -> np.ndarray:
+        """``(2,)`` the shift most pairs of rows agree on: the mode of the pairs' offsets
+        (mean shift, its kernel narrowed from twice the camera's expected change to a robot's
+        spread), so that a camera change as large as the robots' spacing is still matched."""
+        target, sigma = self._predicted()
+        i, j, _ = pairs_within(moved, target, self.prior.reach)
+        shift = np.zeros(2)
+        if len(i) == 0:
+            return shift
+        offset = target[j] - moved[i]
+        spread = sigma[j] ** 2
+        width = max(2.0 * self.prior.change[2], 2.0 * float(np.median(sigma[j])))
+        for _ in range(12):
+            gap = np.sum((offset - shift) ** 2, axis=1)
+            weight = np.exp(-0.5 * gap / (width**2 + spread)) / (width**2 + spread)
+            total = float(weight.sum())
+            if total <= 0.0:
+                break
+            shift = weight @ offset / total
+            width = max(0.7 * width, float(np.median(sigma[j])))
+        return shift
 
     def _match(self, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Mutual nearest pairs ``(row, previous row, spread)`` between the rows ``moved`` (through

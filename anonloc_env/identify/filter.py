@@ -14,6 +14,7 @@ from anonloc_env.identify import kernels
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
 from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
+from anonloc_env.identify.contact import break_tracks, pressed_interval
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.likelihood import Pairs, Scoring
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_background
@@ -73,6 +74,7 @@ class Identifier:
         self._shares: tuple[np.ndarray, ...] | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
+        self._pushed_before = np.zeros(self.n, bool)  # robots pushed in the latest interval
         if self.registration is not None:
             self.registration.reset()
 
@@ -101,6 +103,7 @@ class Identifier:
             unanchored = before + self.log_miss
             self.links = None
         else:
+            interval = self._pressed(interval)
             parts, unanchored = self._extend(rows, interval, log_bg)
             before = self.unanchored
         bias = None if self.links is None else self.links.starts + log_bg
@@ -115,6 +118,27 @@ class Identifier:
         self._compute_belief()
 
     # -- one interval ----------------------------------------------------------------------------
+    def _pressed(self, interval: Interval) -> Interval:
+        """The interval as the model takes it: robots pressed (pushed now and in the interval
+        before) slide consistently, and their tracks may break (see
+        :mod:`anonloc_env.identify.contact`)."""
+        pushed = np.zeros(self.n, bool) if interval.push is None else interval.push > 0
+        pressed = pushed & self._pushed_before
+        self._pushed_before = pushed
+        model = self.model
+        if model.crowd_push_share is None or not pressed.any():
+            return interval
+        assert self.rows is not None
+        assert interval.push is not None
+        log_rows = math.log(len(self.rows)) if len(self.rows) else -np.inf
+        if len(self.rows) and self.row_bias is not None:
+            log_rows = float(np.logaddexp.reduce(self.row_bias))
+        t = self.tracks
+        push = np.where(pressed, interval.push, 0.0)
+        brk = model.contact_break
+        break_tracks(t.logw, t.slot, self.uniform, self.unanchored, log_rows, push, brk)
+        return pressed_interval(interval, pressed, model.push_share, model.crowd_push_share)
+
     def _extend(
         self, rows: np.ndarray, interval: Interval, log_bg: float
     ) -> tuple[list[Tracks], np.ndarray]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.arrays import everything, near_best, take_field
+from anonloc_env.identify.contact import first_heading_variance
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.model import (
     GATE_SIGMAS,
@@ -240,6 +241,10 @@ class Child:
         self.p_tt[which] = (
             geo.iso_var[which] / np.maximum(geo.r[which], 1e-12) ** 2 + geo.var_dphi[which]
         )
+        pushed = np.flatnonzero(which & geo.pushed)
+        if len(pushed) and geo.model.crowd_push_share is not None:
+            cov = geo.push_cov(pushed) * (geo.s[pushed] ** 2)[:, None, None]
+            first_heading_variance(pushed, cov, geo.r[pushed], self.p_tt)
 
 
 #: Quadrature points per standard deviation of the narrowest likelihood in log s (and at most

@@ -17,6 +17,7 @@ from anonloc_env.identify.camera_pose import (
     registered_pixel_noise,
     registration_prior,
 )
+from anonloc_env.identify.contact import CONTACT_BREAK, CROWD_PUSH_SHARE
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -64,6 +65,17 @@ class SensorModel:
         others_turn: standard deviation per component of the change of a repeated displacement
             per unit of its length (turns, speed changes), >= 0. ``from_config`` sets
             :data:`OTHERS_TURN`.
+        crowd_push_share: ``push_share`` for a robot pressed (pushed in this interval and the
+            one before: it slides consistently, see :mod:`anonloc_env.identify.contact`), in
+            (0, 1]; ``None`` (the default): ``push_share`` for every robot. ``from_config``
+            sets :data:`anonloc_env.identify.contact.CROWD_PUSH_SHARE` where pictures have no
+            misses and no false positives, ``None`` elsewhere (measured worse there).
+        contact_break: the contact bound (m, summed over an interval) over which a
+            pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
+            uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
+            default): never. ``from_config`` sets
+            :data:`anonloc_env.identify.contact.CONTACT_BREAK` (0 where it sets no
+            ``crowd_push_share``).
         registration: the camera's motion when it moves and no landmarks register its pictures
             (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
             the set point's frame first, and ``from_config`` adds the registration's error to
@@ -86,6 +98,8 @@ class SensorModel:
     others_repeat: float = 0.0
     others_jitter: float = 0.0
     others_turn: float = 0.0
+    crowd_push_share: float | None = None
+    contact_break: float = 0.0
     registration: RegistrationPrior | None = None
 
     def __post_init__(self) -> None:
@@ -111,6 +125,9 @@ class SensorModel:
         check_number("others_repeat", self.others_repeat, 0.0, 1.0, high_open=True)
         check_number("others_jitter", self.others_jitter, 0.0)
         check_number("others_turn", self.others_turn, 0.0)
+        if self.crowd_push_share is not None:
+            check_number("crowd_push_share", self.crowd_push_share, 0.0, 1.0, low_open=True)
+        check_number("contact_break", self.contact_break, 0.0)
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
@@ -139,6 +156,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     mean = camera.scale
     u_min, v_min, u_max, v_max = camera.field_of_view
     cam = _camera_section(config)
+    clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
     return SensorModel(
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
@@ -156,6 +174,10 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         others_repeat=OTHERS_REPEAT,
         others_jitter=OTHERS_JITTER,
         others_turn=OTHERS_TURN,
+        # The crowd's contact model was measured on clean pictures; with misses or false
+        # positives it made `random` slower and less reliable at one robot per m^2 (docs/crowds.md).
+        crowd_push_share=CROWD_PUSH_SHARE if clean else None,
+        contact_break=CONTACT_BREAK if clean else 0.0,
         registration=registration_prior(config),
     )
 

@@ -12,6 +12,7 @@ pattern. This package recreates that platform with OpenCV's ArUco markers:
   (the env uses it with ``camera={"source": "image"}``);
 * :func:`effective_camera`: the camera section with the image path's measured errors, which the
   sensor model localizers build uses;
+* :func:`landmark_pose`: a picture's homography from the ground landmarks it shows;
 * :func:`calibrate`: the camera homography estimated from robots driving known paths.
 
 Importing this package does not import OpenCV; building any of the classes does.
@@ -19,7 +20,7 @@ Importing this package does not import OpenCV; building any of the classes does.
 
 from __future__ import annotations
 
-from anonloc_env.images.calibration import CalibrationResult, calibrate, estimate_homography
+from anonloc_env.images.calibration import CalibrationResult, calibrate
 from anonloc_env.images.detector import MarkerDetector
 from anonloc_env.images.errors import (
     ErrorSample,
@@ -29,6 +30,7 @@ from anonloc_env.images.errors import (
     sample_errors,
 )
 from anonloc_env.images.frame import PixelFrame, pixel_frame
+from anonloc_env.images.pose import estimate_homography, landmark_pose
 from anonloc_env.images.renderer import ImageRenderer
 from anonloc_env.images.source import ImageCamera
 
@@ -43,6 +45,7 @@ __all__ = [
     "calibrate",
     "effective_camera",
     "estimate_homography",
+    "landmark_pose",
     "measured_errors",
     "pixel_frame",
     "sample_errors",

@@ -1,7 +1,8 @@
 """Calibrate the camera as a user would: robots drive known paths, the homography is fitted.
 
 A few robots start on a line near the arena's low-y wall, facing +y, and drive straight across
-at a known speed while the image source photographs them. Their known ground positions (a user
+at a known speed while the image source photographs them (the detection source alone: no
+environment is run, the positions at each picture are known). Their known ground positions (a user
 would measure them; here they are the simulator's) and their detected image positions give the
 ground-to-image homography (``cv2.findHomography``, least squares). From it come the figures the
 paper reported for its camera, compared with the true camera: the scale at the arena centre, the
@@ -20,7 +21,7 @@ import numpy as np
 
 from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
-from anonloc_env.images._cv import import_cv2
+from anonloc_env.images.pose import estimate_homography
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,26 +54,6 @@ class CalibrationResult:
     tilt_deg: tuple[float, float]
 
 
-def estimate_homography(world_xy: np.ndarray, image_uv: np.ndarray) -> np.ndarray:
-    """The ``(3, 3)`` homography from ground points ``(M, 2)`` (m) to their image points
-    ``(M, 2)`` (image units), least squares, M >= 4."""
-    if len(world_xy) < 4 or len(world_xy) != len(image_uv):
-        raise ValueError(
-            f"need at least 4 matching points, got {len(world_xy)} and {len(image_uv)}"
-        )
-    if not (np.isfinite(world_xy).all() and np.isfinite(image_uv).all()):
-        raise ValueError("the points must be finite numbers (a NaN or inf gives a NaN homography)")
-    cv2 = import_cv2()
-    h, _ = cv2.findHomography(
-        np.asarray(world_xy, np.float64).reshape(-1, 1, 2),
-        np.asarray(image_uv, np.float64).reshape(-1, 1, 2),
-        0,
-    )
-    if h is None:
-        raise ValueError("the points are degenerate (collinear?): no homography fits them")
-    return np.asarray(h, dtype=np.float64)
-
-
 def calibrate(
     config: EnvConfig, *, robots: int = 3, pictures: int = 20, seed: int = 0
 ) -> CalibrationResult:
@@ -85,44 +66,32 @@ def calibrate(
     for name, value in (("robots", robots), ("pictures", pictures)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    # The env imports this package (through the identifier): import it when called.
-    from anonloc_env.env import AnonLocEnv
-    from anonloc_env.rewards import EnergyCost
+    # The robots drive straight at a known speed, so their ground positions at each picture are
+    # known (a user measures them): no simulation is needed, only the detection source.
+    from anonloc_env.images.source import ImageCamera
 
     width, height = config.arena_size
     speed = config.robot.v_max
     travel = 0.8 * height - config.robot.size
     interval = max(config.dt, travel / speed / pictures)
-    env = AnonLocEnv(
-        dataclasses.replace(
-            config,
-            n_robots=robots,
-            max_cycles=10 * math.ceil(pictures * interval / config.dt) + 10,
-            camera=dataclasses.replace(config.camera, source="image"),
-            schedule=dataclasses.replace(config.schedule, picture_interval=interval, jitter=0.0),
-        ),
-        reward_fn=EnergyCost(),
+    setup = dataclasses.replace(
+        config, n_robots=robots, camera=dataclasses.replace(config.camera, source="image")
     )
+    source = ImageCamera(setup)
+    rng = np.random.default_rng(seed)
     low = 0.1 * height + config.robot.size
-    start = np.array([[width * (i + 1) / (robots + 1), low, math.pi / 2] for i in range(robots)])
-    _, infos = env.reset(seed=seed, options={"poses": start})
-    forward = {agent: np.array([1.0, 0.0], np.float32) for agent in env.possible_agents}
+    xs = np.array([width * (i + 1) / (robots + 1) for i in range(robots)])
     world: list[np.ndarray] = []
     image: list[np.ndarray] = []
-    taken = -1
-    while len(world) < pictures * robots and env.agents:
-        picture = env.picture
-        if picture is not None and picture.index != taken:
-            taken = picture.index
-            for agent_index, agent in enumerate(env.possible_agents):
-                row = picture.true_index[agent_index]
-                if row >= 0:
-                    world.append(infos[agent]["pose"][:2])
-                    image.append(picture.detections[row, :2])
-            if taken + 1 >= pictures:
-                break
-        _, _, _, _, infos = env.step(forward)
-    env.close()
+    for k in range(pictures):
+        poses = np.column_stack(
+            [xs, np.full(robots, low + speed * k * interval), np.full(robots, math.pi / 2)]
+        )
+        picture = source.take(poses, rng, k * interval, k)
+        for i, row in enumerate(picture.true_index.tolist()):
+            if row >= 0:
+                world.append(poses[i, :2])
+                image.append(picture.detections[row, :2])
     return compare(estimate_homography(np.array(world), np.array(image)), config, world, image)
 
 

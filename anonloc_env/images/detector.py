@@ -63,14 +63,22 @@ class MarkerDetector:
             cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY)), params
         )
 
-    def corners(self, image: np.ndarray) -> np.ndarray:
-        """``(K, 4, 2)`` pixel corners ``(col, row)`` of the markers found in ``image``, in
-        ArUco's order (the marker's top-left, top-right, bottom-right, bottom-left)."""
+    def markers(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every marker found in ``image``: ``(K,)`` ids and ``(K, 4, 2)`` pixel corners
+        ``(col, row)`` in ArUco's order (the marker's top-left, top-right, bottom-right,
+        bottom-left)."""
         found, ids, _ = self._detector.detectMarkers(image)
         if ids is None or len(found) == 0:
-            return np.empty((0, 4, 2))
-        keep = np.asarray(ids).reshape(-1) == MARKER_ID
-        return np.asarray(found, dtype=np.float64).reshape(-1, 4, 2)[keep]
+            return np.zeros(0, np.int64), np.empty((0, 4, 2))
+        return (
+            np.asarray(ids, dtype=np.int64).reshape(-1),
+            np.asarray(found, dtype=np.float64).reshape(-1, 4, 2),
+        )
+
+    def corners(self, image: np.ndarray) -> np.ndarray:
+        """``(K, 4, 2)`` pixel corners of the robots' markers (id 0) found in ``image``."""
+        ids, corners = self.markers(image)
+        return corners[ids == MARKER_ID]
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """``(K, 3)`` rows ``(u, v, theta)`` (image units, rad in [-pi, pi)) of the markers in

@@ -9,6 +9,9 @@ robot, or the square inscribed in the circular one.
 
 The marker's top edge (its first two corners, in the order ArUco returns them) faces the
 robot's heading, so the heading is read from the corner order.
+
+Ground landmarks (``camera.landmarks``) are the same square lying on the floor, with marker id
+``k + 1`` for the k-th landmark, its top edge facing +y (:func:`landmark_corners`).
 """
 
 from __future__ import annotations
@@ -48,8 +51,11 @@ def marker_size(robot: RobotConfig) -> float:
     return MARKER_CELLS * cell_size(robot)
 
 
-def template(pixels_per_cell: int, smoothing: float = 0.0) -> np.ndarray:
-    """The square drawn on a robot, ``TEMPLATE_CELLS * pixels_per_cell`` pixels wide, uint8.
+def template(
+    pixels_per_cell: int, smoothing: float = 0.0, marker_id: int = MARKER_ID
+) -> np.ndarray:
+    """The square drawn on a robot, ``TEMPLATE_CELLS * pixels_per_cell`` pixels wide, uint8
+    (or, with another ``marker_id``, on a ground landmark: the same square with that id).
 
     Row 0 is the robot's front. ``smoothing`` is the standard deviation (template pixels) of the
     Gaussian applied before the template is shrunk onto the image, which keeps its edges from
@@ -58,7 +64,7 @@ def template(pixels_per_cell: int, smoothing: float = 0.0) -> np.ndarray:
     """
     cv2 = import_cv2()
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY))
-    marker = cv2.aruco.generateImageMarker(dictionary, MARKER_ID, MARKER_CELLS * pixels_per_cell)
+    marker = cv2.aruco.generateImageMarker(dictionary, marker_id, MARKER_CELLS * pixels_per_cell)
     side = TEMPLATE_CELLS * pixels_per_cell
     out = np.full((side, side), BODY, np.uint8)
     out[pixels_per_cell:-pixels_per_cell, pixels_per_cell:-pixels_per_cell] = WHITE
@@ -68,3 +74,13 @@ def template(pixels_per_cell: int, smoothing: float = 0.0) -> np.ndarray:
         sigma = min(smoothing, float(side))
         out = cv2.GaussianBlur(out, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
     return out
+
+
+def landmark_corners(robot: RobotConfig, position: tuple[float, float]) -> np.ndarray:
+    """``(4, 2)`` ground points (m) of a landmark's marker corners, in ArUco's order (top-left,
+    top-right, bottom-right, bottom-left): the marker lies at ``position`` facing +y."""
+    half = 0.5 * marker_size(robot)
+    x, y = position
+    return np.array(
+        [[x - half, y + half], [x + half, y + half], [x + half, y - half], [x - half, y - half]]
+    )

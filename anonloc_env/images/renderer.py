@@ -43,7 +43,9 @@ class ImageRenderer:
         shrink = _TEMPLATE_CELL_PIXELS / cell_pixels  # template pixels per image pixel
         self.cell_pixels = cell_pixels
         """Pixels per marker cell at the arena centre."""
-        self.template = template(_TEMPLATE_CELL_PIXELS, 0.5 * shrink if shrink > 1.0 else 0.0)
+        self._smoothing = 0.5 * shrink if shrink > 1.0 else 0.0
+        self.template = template(_TEMPLATE_CELL_PIXELS, self._smoothing)
+        self._landmarks: dict[int, np.ndarray] = {}
         # Template pixel (col, row) -> robot frame (forward, left) in metres: row 0 is the front.
         metres = cell / _TEMPLATE_CELL_PIXELS
         centre = (TEMPLATE_CELLS * _TEMPLATE_CELL_PIXELS - 1) / 2.0
@@ -70,40 +72,17 @@ class ImageRenderer:
     def render(self, poses: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
         """The camera's image of robots at ``poses`` ``(N, 3)`` (m, rad): ``(H, W)`` uint8.
 
-        ``rng`` draws the sensor noise (needed only if ``camera.image_noise > 0``).
+        The ground landmarks (``camera.landmarks``) are drawn first, under the robots. ``rng``
+        draws the sensor noise (needed only if ``camera.image_noise > 0``).
         """
         cv2 = self.cv2
         cam = self.config.camera
         image = self._background.copy()
-        rows, cols = image.shape
         m = self.frame.matrix @ self.camera.homography  # the pose of this picture
-        for x, y, theta in np.asarray(poses, dtype=np.float64):
-            c, s = math.cos(theta), math.sin(theta)
-            pose = np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
-            robot_to_pixels = m @ pose
-            box = _apply(robot_to_pixels, self._box)
-            c0, r0 = np.floor(box.min(axis=0)).astype(int) - 1
-            c1, r1 = np.ceil(box.max(axis=0)).astype(int) + 2
-            c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, cols), min(r1, rows)
-            if c0 >= c1 or r0 >= r1:
-                continue  # entirely outside the image
-            shift = np.array([[1.0, 0.0, -c0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]])
-            roi = image[r0:r1, c0:c1].copy()
-            if self._outline is not None:
-                outline = _apply(shift @ robot_to_pixels, self._outline)
-                cv2.fillConvexPoly(
-                    roi, np.round(outline * 16).astype(np.int32), BODY, cv2.LINE_AA, 4
-                )
-            warp = shift @ robot_to_pixels @ self._template_to_robot
-            cv2.warpPerspective(
-                self.template,
-                warp,
-                (c1 - c0, r1 - r0),
-                dst=roi,
-                flags=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_TRANSPARENT,
-            )
-            image[r0:r1, c0:c1] = roi
+        for k, (x, y) in enumerate(cam.landmarks):
+            self._draw(image, m, (x, y, 0.5 * math.pi), self._landmark_template(k), None)
+        for pose in np.asarray(poses, dtype=np.float64):
+            self._draw(image, m, pose, self.template, self._outline)
         if cam.image_blur == 0.0 and cam.image_noise == 0.0 and self._gradient is None:
             return image
         out = image.astype(np.float32)
@@ -116,6 +95,48 @@ class ImageRenderer:
                 raise ValueError("camera.image_noise > 0 needs a random generator (rng)")
             out += cam.image_noise * rng.standard_normal(out.shape, dtype=np.float32)
         return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+
+    def _landmark_template(self, k: int) -> np.ndarray:
+        """The template of landmark ``k`` (marker id ``k + 1``), built once."""
+        if k not in self._landmarks:
+            self._landmarks[k] = template(_TEMPLATE_CELL_PIXELS, self._smoothing, marker_id=k + 1)
+        return self._landmarks[k]
+
+    def _draw(
+        self,
+        image: np.ndarray,
+        world_to_pixels: np.ndarray,
+        pose: tuple[float, float, float] | np.ndarray,
+        square: np.ndarray,
+        outline: np.ndarray | None,
+    ) -> None:
+        """Draw ``square`` (a template) at ``pose`` ``(x, y, theta)`` into ``image``, in place:
+        a warp of the template into the pose's bounding box only."""
+        cv2 = self.cv2
+        rows, cols = image.shape
+        x, y, theta = (float(value) for value in pose)
+        c, s = math.cos(theta), math.sin(theta)
+        robot_to_pixels = world_to_pixels @ np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+        box = _apply(robot_to_pixels, self._box)
+        c0, r0 = np.floor(box.min(axis=0)).astype(int) - 1
+        c1, r1 = np.ceil(box.max(axis=0)).astype(int) + 2
+        c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, cols), min(r1, rows)
+        if c0 >= c1 or r0 >= r1:
+            return  # entirely outside the image
+        shift = np.array([[1.0, 0.0, -c0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]])
+        roi = image[r0:r1, c0:c1].copy()
+        if outline is not None:
+            points = _apply(shift @ robot_to_pixels, outline)
+            cv2.fillConvexPoly(roi, np.round(points * 16).astype(np.int32), BODY, cv2.LINE_AA, 4)
+        cv2.warpPerspective(
+            square,
+            shift @ robot_to_pixels @ self._template_to_robot,
+            (c1 - c0, r1 - r0),
+            dst=roi,
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_TRANSPARENT,
+        )
+        image[r0:r1, c0:c1] = roi
 
 
 def _apply(h: np.ndarray, xy: np.ndarray) -> np.ndarray:

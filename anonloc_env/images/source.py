@@ -2,8 +2,10 @@
 
 :class:`ImageCamera` renders the arena (:class:`~anonloc_env.images.renderer.ImageRenderer`),
 detects the markers (:class:`~anonloc_env.images.detector.MarkerDetector`) and returns the rows as
-a :class:`~anonloc_env.camera.Picture`, shuffled. Robots whose marker is cut by the image border,
-hidden by another robot or not decoded are missing; a detection that lies near no robot is a
+a :class:`~anonloc_env.camera.Picture`, shuffled; with ground landmarks, rectified into the set
+point's frame through the homography their corners give
+(:func:`~anonloc_env.images.pose.landmark_pose`). Robots whose marker is cut by the image
+border, hidden by another robot or not decoded are missing; a detection that lies near no robot is a
 false positive. The ground truth ``true_index`` matches each robot to the detection nearest its
 projected centre, within a quarter of a marker.
 """
@@ -12,10 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from anonloc_env.camera import Camera, Picture
+from anonloc_env.camera import Camera, Picture, rectified
 from anonloc_env.config import EnvConfig
-from anonloc_env.images.detector import MarkerDetector
-from anonloc_env.images.marker import marker_size
+from anonloc_env.images.detector import MarkerDetector, corners_to_rows
+from anonloc_env.images.marker import MARKER_ID, marker_size
+from anonloc_env.images.pose import landmark_pose
 from anonloc_env.images.renderer import ImageRenderer
 
 
@@ -48,7 +51,8 @@ class ImageCamera:
         """Photograph robots at ``poses`` ``(N, 3)``: render, detect, match, shuffle."""
         image = self.renderer.render(poses, rng)
         self.last_image = image
-        rows = self.detector.detect(image)
+        ids, corners = self.detector.markers(image)
+        rows = corners_to_rows(corners[ids == MARKER_ID], self.frame)
         robot_row = match(self.camera.project(np.asarray(poses)[:, :2]), rows, self.gate)
         capacity = self.camera.capacity
         if len(rows) > capacity:  # keep every true detection, drop extra false ones
@@ -65,13 +69,17 @@ class ImageCamera:
             detections[:, 2] = 0.0
         row_of = np.empty(len(rows), dtype=np.int64)
         row_of[order] = np.arange(len(rows))
-        return Picture(
+        picture = Picture(
             detections=detections,
             true_index=_reindex(robot_row, row_of),
             time=time,
             index=index,
             has_orientation=self.config.camera.orientation,
         )
+        if not self.config.camera.landmarks:
+            return picture
+        found, centres, estimated = landmark_pose(self.config, self.frame, ids, corners)
+        return rectified(self.config, picture, found, centres, self.camera.set_point, estimated)
 
 
 def _reindex(robot_row: np.ndarray, new_row: np.ndarray) -> np.ndarray:

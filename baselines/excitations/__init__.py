@@ -15,9 +15,11 @@ Layout, one family a module (every name is importable from here):
 :mod:`~baselines.excitations.paper` (the paper's :class:`Angular` and :class:`Linear`),
 :mod:`~baselines.excitations.random_motion` (the paper's :class:`RandomMotion` and the
 :class:`BumpEscape` it shares with the swarm),
-:mod:`~baselines.excitations.swarm` (:class:`SwarmMotion`, :class:`SwarmDuty`) and
-:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion` and its :class:`BackOff`). The
-active ones, which read the robots' beliefs, are in :mod:`baselines.active`.
+:mod:`~baselines.excitations.swarm` (:class:`SwarmMotion`, :class:`SwarmDuty`),
+:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion` and its :class:`BackOff`) and
+:mod:`~baselines.excitations.gaps` (:class:`GapSeeking`, the crowd-aware one: it reads the
+beliefs and the picture to keep out of contact). The other active ones, which read the robots'
+beliefs, are in :mod:`baselines.active`.
 """
 
 from baselines.excitations.base import Excitation, Still
@@ -27,6 +29,7 @@ from baselines.excitations.distinct import (
     DistinctSettings,
     check_command_box,
 )
+from baselines.excitations.gaps import GapSeeking, GapSettings
 from baselines.excitations.paper import Angular, AngularSettings, Linear, LinearSettings
 from baselines.excitations.random_motion import BumpEscape, RandomMotion, RandomSettings
 from baselines.excitations.swarm import SWARM_JITTER, SwarmDuty, SwarmMotion
@@ -40,6 +43,8 @@ __all__ = [
     "DistinctMotion",
     "DistinctSettings",
     "Excitation",
+    "GapSeeking",
+    "GapSettings",
     "Linear",
     "LinearSettings",
     "RandomMotion",
