@@ -69,7 +69,7 @@ class Condition:
     robots: int
 
 
-def _crowd(n: int, headings: bool, **camera: float) -> EnvConfig:
+def crowd(n: int, headings: bool, **camera: float) -> EnvConfig:
     """N robots, one per square metre, 1 px of noise, as ``benchmarks/agent_conditions.py``."""
     side = math.sqrt(n)
     return anonloc_env.make_config(
@@ -99,9 +99,9 @@ def conditions(scale: float = 1.0) -> list[Condition]:
     for n in (10, 50):
         for headings in (False, True):
             out.append(
-                Condition(f"crowd {n} {headings}", _crowd(n, headings), "random", count(24), 16, 6)
+                Condition(f"crowd {n} {headings}", crowd(n, headings), "random", count(24), 16, 6)
             )
-    clutter = _crowd(20, False, p_miss=0.1, false_positives=3.0)
+    clutter = crowd(20, False, p_miss=0.1, false_positives=3.0)
     out.append(Condition("clutter 20", clutter, "random", count(24), 16, 6))
     return out
 

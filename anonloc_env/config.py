@@ -17,8 +17,9 @@ never reaches the simulation.
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sized
 from dataclasses import dataclass, field
 
 from anonloc_env._checks import check_choice, check_number, check_pair
@@ -165,7 +166,8 @@ class CameraConfig:
             0: no gimbal, the camera tilts with the drone.
         landmarks: ground positions ``(x, y)`` (m, inside the arena) of fixed markers with
             distinct ids (ArUco ids 1, 2, ... of the robots' dictionary; the robots all wear id
-            0), at most 49. Every picture carries each landmark seen, with the same noise and
+            0), at most 49, at least ``robot.size`` apart. Every picture carries each landmark
+            seen, with the same noise and
             misses as a robot's detection: what a localizer needs to know the camera's pose.
     """
 
@@ -244,15 +246,17 @@ class CameraConfig:
                 "camera.landmarks must be a sequence of (x, y) ground positions in metres, e.g. "
                 f"((0.5, 0.5), (3.5, 0.5)), or () for none; got {self.landmarks!r}"
             )
-        points = tuple(
-            check_pair(f"camera.landmarks[{i}]", point, low=-MAX_LENGTH, high=MAX_LENGTH)
-            for i, point in enumerate(self.landmarks)
-        )
-        if len(points) > MAX_LANDMARKS:
+        given = list(itertools.islice(self.landmarks, MAX_LANDMARKS + 1))  # counted first
+        if len(given) > MAX_LANDMARKS:
+            count = len(self.landmarks) if isinstance(self.landmarks, Sized) else "more"
             raise ValueError(
                 f"camera.landmarks must hold at most {MAX_LANDMARKS} positions (ArUco ids 1 to "
-                f"{MAX_LANDMARKS}), got {len(points)}"
+                f"{MAX_LANDMARKS}), got {count}"
             )
+        points = tuple(
+            check_pair(f"camera.landmarks[{i}]", point, low=-MAX_LENGTH, high=MAX_LENGTH)
+            for i, point in enumerate(given)
+        )
         object.__setattr__(self, "landmarks", points)
 
     @property
@@ -460,6 +464,15 @@ class EnvConfig:
                     f"camera.landmarks[{i}] must lie in the arena [0, {self.arena_size[0]:g}] x "
                     f"[0, {self.arena_size[1]:g}] m, got ({x:g}, {y:g})"
                 )
+            for j, (u, v) in enumerate(self.camera.landmarks[:i]):
+                if math.hypot(x - u, y - v) < self.robot.size:
+                    raise ValueError(
+                        f"camera.landmarks[{i}] ({x:g}, {y:g}) is within robot.size = "
+                        f"{self.robot.size:g} m of camera.landmarks[{j}] ({u:g}, {v:g}): "
+                        "landmarks are markers of a robot's size, so they would overlap, and "
+                        "landmarks at one place fix no camera pose (they made localizers decide "
+                        "wrongly)"
+                    )
         if self.observation.max_detections is not None and (
             self.observation.max_detections < self.n_robots
         ):

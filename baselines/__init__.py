@@ -19,11 +19,15 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
+from baselines._distribution import check as _check_distribution
 from baselines.catalog import policy_names, register_policy
 
 if TYPE_CHECKING:
     from baselines.policies import BaselinePolicy, Policy, Team
     from baselines.registry import POLICIES, make, make_team, scenario_config
+
+# OpenAI's `baselines` on the package index has this top-level name too (docs/design.md).
+_check_distribution("baselines")
 
 #: The package face, imported on first use (``import baselines`` stays cheap: listing the names
 #: needs only :mod:`baselines.catalog`).

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.localizer_training import Condition, _crowd, accuracy, collect, fit, zero_weights
+from agents.localizer_training import Condition, accuracy, collect, crowd, fit, zero_weights
 from baselines.mlp import FEATURES, NEIGHBOUR_FEATURES, load_weights
 from tests.helpers import ROOT
 
@@ -23,7 +23,7 @@ def test_labels_are_the_rows_that_fit_the_own_motion() -> None:
     # Ten robots with headings and 1 px of noise: the labelled (true) row's best previous row
     # misses the robot's own motion by less than 5 tolerances in nearly every sample, the other
     # rows' in few (robots standing still look alike: a single pair cannot always tell).
-    condition = Condition("c", _crowd(10, True), "random", 2, 6, 10)
+    condition = Condition("c", crowd(10, True), "random", 2, 6, 10)
     samples = collect(condition, zero_weights(), 0)
     assert len(samples) == 2 * 5 * 10  # episodes x picture pairs x robots
     near = math.log1p(5.0)  # the features are sign(x) log(1 + |x|)

@@ -3,7 +3,6 @@ and a clear error for a bad weights file."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -11,18 +10,9 @@ import pytest
 
 import anonloc_env
 import baselines
+from agents.localizer_training import crowd
 from baselines.mlp import FEATURES, WEIGHTS, MLPLocalizer, load_weights
 from baselines.runner import run_episode
-
-
-def _crowd(n: int, headings: bool = True, **camera: float) -> anonloc_env.EnvConfig:
-    side = math.sqrt(n)
-    return anonloc_env.make_config(
-        n_robots=n,
-        arena_size=(side, side),
-        camera={"pixel_noise": 1.0, "orientation": headings, **camera},
-        max_cycles=400,
-    )
 
 
 def test_the_shipped_weights_load_and_are_small() -> None:
@@ -55,9 +45,9 @@ def _episode(config: anonloc_env.EnvConfig, seed: int, pictures: int = 8):
 
 
 def test_same_seed_same_beliefs() -> None:
-    a, b = _episode(_crowd(6), 3), _episode(_crowd(6), 3)
+    a, b = _episode(crowd(6, True), 3), _episode(crowd(6, True), 3)
     assert a.records == b.records
-    assert a.records != _episode(_crowd(6), 4).records
+    assert a.records != _episode(crowd(6, True), 4).records
 
 
 def test_it_beats_chance_clearly_and_works_for_any_n() -> None:
@@ -66,7 +56,7 @@ def test_it_beats_chance_clearly_and_works_for_any_n() -> None:
     records = [
         r
         for seed in (11, 12, 13)
-        for r in _episode(_crowd(10), seed).records
+        for r in _episode(crowd(10, True), seed).records
         if r.picture > 0 and r.true_index >= 0
     ]
     belief = np.mean([r.belief_true for r in records])
@@ -76,7 +66,7 @@ def test_it_beats_chance_clearly_and_works_for_any_n() -> None:
     assert np.mean([r.correct for r in decided]) > 0.9
     # The same weights for 3 and 30 robots, with misses and false positives.
     for n in (3, 30):
-        result = _episode(_crowd(n, p_miss=0.1, false_positives=2.0), 0, pictures=3)
+        result = _episode(crowd(n, True, p_miss=0.1, false_positives=2.0), 0, pictures=3)
         assert {r.robot for r in result.records} == set(range(n))
 
 
