@@ -30,6 +30,7 @@ the training command is ``python -m agents.localizer_training`` (torch, the ``rl
 from __future__ import annotations
 
 import math
+import re
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -206,6 +207,31 @@ class MLPWeights:
         tmp.replace(path)
 
 
+#: The arrays a weights file holds (any other member is never read).
+_WANTED = re.compile(r"features|absent|mean|scale|[Wb]\d{1,3}")
+#: The most bytes a weights file may declare for one array, and in all (checked before any is
+#: read: a small ``.npz`` can declare gigabytes of zeros).
+MAX_ARRAY_BYTES = 64 << 20
+MAX_TOTAL_BYTES = 256 << 20
+
+
+def _check_sizes(path: Path) -> None:
+    """Refuse a weights file whose declared array sizes pass :data:`MAX_ARRAY_BYTES` (or
+    :data:`MAX_TOTAL_BYTES` in all), before any array is read."""
+    with zipfile.ZipFile(path) as archive:
+        members = [
+            m for m in archive.infolist() if _WANTED.fullmatch(m.filename.removesuffix(".npy"))
+        ]
+    for member in members:
+        if member.file_size > MAX_ARRAY_BYTES:
+            raise ValueError(
+                f"array {member.filename} declares {member.file_size} bytes, more than the "
+                f"{MAX_ARRAY_BYTES} a weights array may hold"
+            )
+    if sum(m.file_size for m in members) > MAX_TOTAL_BYTES:
+        raise ValueError(f"its arrays declare more than {MAX_TOTAL_BYTES} bytes in all")
+
+
 def load_weights(path: Path | str = WEIGHTS) -> MLPWeights:
     """The weights in ``path`` (default: the ones shipped, :data:`WEIGHTS`).
 
@@ -218,8 +244,9 @@ def load_weights(path: Path | str = WEIGHTS) -> MLPWeights:
     if not path.is_file():
         raise FileNotFoundError(f"no MLP localizer weights at {path}")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {key: data[key] for key in data.files}
+        _check_sizes(path)
+        with np.load(path, allow_pickle=False) as data:  # only the arrays it uses are read
+            arrays = {key: data[key] for key in data.files if _WANTED.fullmatch(key)}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
         raise ValueError(f"{path} is not an MLP localizer weights file (.npz): {error}") from None
 
@@ -249,6 +276,8 @@ def load_weights(path: Path | str = WEIGHTS) -> MLPWeights:
     scale = np.asarray(arrays["scale"], dtype=np.float64)
     if mean.shape != (len(FEATURES),) or scale.shape != mean.shape or np.any(scale <= 0):
         raise bad("its input normalisation has the wrong shape or a scale <= 0")
+    if np.shape(arrays["absent"]) != ():
+        raise bad(f"its 'absent' score has shape {np.shape(arrays['absent'])}, not a number")
     values = [mean, scale, *(a for layer in layers for a in layer), arrays["absent"]]
     if not all(np.all(np.isfinite(v)) for v in values):
         raise bad("it holds values that are not finite")
