@@ -46,6 +46,11 @@ from anonloc_env.presets import make_config
 TRAIN_CONDITIONS = CONDITIONS
 
 
+#: The most robot-steps a run (and so a batch or a checkpoint interval) may count: 1e10, about
+#: half a year at the 700 robot-steps per second of a 2-core machine; more is a hang.
+MAX_STEPS = 10_000_000_000
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """Everything a training run depends on. Every field is recorded in ``config.json``."""
@@ -129,16 +134,16 @@ class TrainConfig:
             check_number("energy_weight", self.energy_weight, 0.0)
         check_number("budget", self.budget, 0.0, 1.0)
         check_number("information_weight", self.information_weight, 0.0)
-        check_number("timesteps", self.timesteps, 1, integer=True)
+        check_number("timesteps", self.timesteps, 1, MAX_STEPS, integer=True)
         check_number("n_envs", self.n_envs, 1, 1024, integer=True)
         check_number("seed", self.seed, 0, 2**32 - 1, integer=True)
         check_number("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         check_number("n_steps", self.n_steps, 2, 100_000, integer=True)
-        check_number("batch_size", self.batch_size, 2, integer=True)
+        check_number("batch_size", self.batch_size, 2, MAX_STEPS, integer=True)
         check_number("n_epochs", self.n_epochs, 1, 1000, integer=True)
         check_number("gamma", self.gamma, 0.0, 1.0)
         check_number("ent_coef", self.ent_coef, 0.0)
-        check_number("checkpoint_every", self.checkpoint_every, 1, integer=True)
+        check_number("checkpoint_every", self.checkpoint_every, 1, MAX_STEPS, integer=True)
         if self.minutes is not None:
             check_number("minutes", self.minutes, 0.0, low_open=True)
         check_number("torch_threads", self.torch_threads, 1, 1024, integer=True)

@@ -85,3 +85,13 @@ def test_a_misspelt_sweep_gets_a_suggestion(tmp_path: Path) -> None:
     done = run_script("study", "--sweep", "densty", "--seeds", "1", "--out", tmp_path / "s")
     assert done.returncode == 2
     assert "unknown sweep 'densty' (did you mean 'density'?)" in done.stderr
+
+
+@pytest.mark.parametrize("field", ["timesteps", "batch_size", "checkpoint_every"])
+def test_train_step_counts_are_bounded(field: str) -> None:
+    pytest.importorskip("stable_baselines3")
+    from agents.train import TrainConfig
+
+    # --timesteps 10**30 once started a run that would never end
+    with pytest.raises(ValueError, match=rf"{field} must be in \[\d, 1e\+10\], got 10+$"):
+        TrainConfig(**{field: 10**30})
