@@ -55,9 +55,9 @@ from torchrl.envs import EnvBase, FlattenObservation, PettingZooWrapper, Transfo
 
 from agents.candidate_features import CANDIDATES
 from agents.candidates import CandidateChooser
-from agents.crew import CONDITIONS
 from agents.pettingzoo import BeliefParallelEnv, flatten
 from agents.policy import draw
+from agents.spec import AgentSpec, Reward
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import make_config
@@ -108,8 +108,8 @@ class BeliefSettings(RawSettings):
     information_weight: float = 1.0
 
     def __post_init__(self) -> None:
-        if self.condition not in CONDITIONS:
-            raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {self.condition!r}")
+        if self.condition not in ("free", "swarm"):
+            raise ValueError(f"condition must be one of ['free', 'swarm'], got {self.condition!r}")
         if not 0.0 <= self.budget <= 1.0:
             raise ValueError(f"budget must be in [0, 1], got {self.budget!r}")
         if not (self.information_weight >= 0.0 and math.isfinite(self.information_weight)):
@@ -117,6 +117,11 @@ class BeliefSettings(RawSettings):
                 f"information_weight must be finite and >= 0, got {self.information_weight!r}"
             )
         super().__post_init__()
+
+    def spec(self) -> AgentSpec:
+        """The agent these settings define (``agents.spec.AgentSpec``)."""
+        reward = Reward(information_weight=self.information_weight)
+        return AgentSpec(reward=reward, condition=self.condition, budget=self.budget)
 
 
 def settings(name: str, config: dict[str, Any]) -> RawSettings:
@@ -137,13 +142,7 @@ def pettingzoo_env(name: str, config: dict[str, Any]) -> AnonLocEnv | BeliefPara
     """The PettingZoo env of task ``name`` with ``config`` (the task's dict)."""
     chosen = settings(name, config)
     if isinstance(chosen, BeliefSettings):
-        return BeliefParallelEnv(
-            chosen.env_config(),
-            chosen.condition,
-            chosen.budget,
-            chosen.information_weight,
-            observation="flat",
-        )
+        return BeliefParallelEnv(chosen.env_config(), chosen.spec(), observation="flat")
     return AnonLocEnv(chosen.env_config())
 
 

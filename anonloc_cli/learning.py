@@ -44,18 +44,15 @@ def train(
     out: Path,
     scenario: str,
     sets: Sequence[str],
-    condition: str,
-    budget: float,
-    imitation: int,
-    n_envs: int,
-    seed: int,
     name: str | None,
     minutes: float | None,
     resume: Path | None,
     quiet: bool,
+    config: dict[str, Any],
 ) -> int:
     """Train (or resume) a run; the exit status (130 when Ctrl-C or SIGTERM stopped it, after
-    saving a checkpoint and the agent)."""
+    saving a checkpoint and the agent). ``config``: the other fields of
+    :class:`agents.train.TrainConfig` (not used by a resume, which keeps the run's own)."""
     module = _rl_modules()
     from agents.run_folder import RunBusyError
 
@@ -69,22 +66,18 @@ def train(
                 notify=lambda message: echo(f"Warning: {message}", err=True),
             )
         else:
-            config = _new_config(
+            run = _new_config(
                 module,
                 scenario=scenario,
                 sets=sets,
-                condition=condition,
-                budget=budget,
-                imitation=imitation,
                 timesteps=DEFAULT_TIMESTEPS if timesteps is None else timesteps,
-                n_envs=n_envs,
-                seed=seed,
                 out=str(out),
                 name=name,
                 minutes=minutes,
                 progress=not quiet,
+                **config,
             )
-            result = module.train(config)
+            result = module.train(run)
     except module.Interrupted as stopped:
         echo(
             f"\nInterrupted at {stopped.timesteps} robot-steps; saved {stopped.checkpoint} and "

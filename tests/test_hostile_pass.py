@@ -77,3 +77,11 @@ def test_mlp_weights_with_a_non_scalar_absent_score_name_the_file(tmp_path: Path
     path = _weights(tmp_path, absent=np.array([1.0, 2.0]))
     with pytest.raises(ValueError, match=r"w.npz is not an MLP .* 'absent' score has shape"):
         load_weights(path)
+
+
+def test_a_misspelt_sweep_gets_a_suggestion(tmp_path: Path) -> None:
+    from tests.cli_helpers import run_script
+
+    done = run_script("study", "--sweep", "densty", "--seeds", "1", "--out", tmp_path / "s")
+    assert done.returncode == 2
+    assert "unknown sweep 'densty' (did you mean 'density'?)" in done.stderr
