@@ -69,6 +69,15 @@ class AtomicCheckpoint(CheckpointCallback):
         return True
 
 
+#: The training bar on a terminal: the figures before any cut, so that 80 columns hold them all.
+BAR_FORMAT = "{desc} {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}]{postfix}"
+#: Printed once above the bar: what its figures mean.
+LEGEND = (
+    "train: ret = mean return of the latest training episodes; id = robots identified\n"
+    "at the end of the evaluation episodes; pic99 = pictures to 99 % (censored mean)"
+)
+
+
 class StepProgress(BaseCallback):
     """A progress bar over the run's whole budget: ``done/total`` robot-steps (a resumed run
     starts at its earlier steps) and the wall-clock budget of this call, if any."""
@@ -77,13 +86,23 @@ class StepProgress(BaseCallback):
         super().__init__()
         self.total, self.already, self.minutes = total, already, minutes
         self._bar: Any = None
+        self._figures: dict[str, str] = {}
 
     def _on_training_start(self) -> None:
-        from tqdm.auto import tqdm
+        import sys
 
-        label = "robot-steps" + ("" if self.minutes is None else f" (<= {self.minutes:g} min)")
-        self._bar = tqdm(
-            total=self.total, initial=min(self.already, self.total), desc=label, unit="step"
+        from anonloc_env._progress import progress_bar
+
+        print(LEGEND, file=sys.stderr, flush=True)
+        if self.minutes is not None:
+            print(f"train: this call stops after {self.minutes:g} min", file=sys.stderr)
+        self._bar = progress_bar(
+            self.total,
+            "train",
+            initial=min(self.already, self.total),
+            unit="step",
+            unit_scale=True,
+            bar_format=BAR_FORMAT,
         )
 
     def _on_step(self) -> bool:
@@ -93,9 +112,11 @@ class StepProgress(BaseCallback):
         return True
 
     def show(self, **figures: str) -> None:
-        """Show ``figures`` (name -> text) beside the bar until the next call."""
+        """Show ``figures`` (name -> text; they replace the ones of that name) beside the bar."""
+        self._figures.update(figures)
         if self._bar is not None:
-            self._bar.set_postfix(figures, refresh=True)
+            text = " ".join(f"{name}={value}" for name, value in self._figures.items())
+            self._bar.set_postfix_str(text, refresh=True)
 
     def _on_training_end(self) -> None:
         if self._bar is not None:
@@ -131,11 +152,26 @@ class ProgressEvaluation(BaseCallback):
         self.progress = progress
         config = scenario[0]
         self.pictures = int(config.max_cycles * config.dt / config.schedule.picture_interval)
+        self._evaluated = False
 
     def _on_step(self) -> bool:
         if self.n_calls % self.every == 0:
             self.evaluate()
         return True
+
+    def _on_rollout_end(self) -> None:
+        """The training return at every rollout, and a first evaluation after the first one
+        (figures from the start, not only after ``every`` steps)."""
+        if self.progress is None:
+            return
+        if not self._evaluated:
+            self.evaluate()
+            return
+        self.progress.show(ret=self._mean_return())
+
+    def _mean_return(self) -> str:
+        returns = [info["r"] for info in self.model.ep_info_buffer or []]
+        return f"{np.mean(returns):.2f}" if returns else "-"
 
     def evaluate(self) -> float:
         """Play the current policy; log and show the figures; returns pictures to 99 %."""
@@ -156,12 +192,10 @@ class ProgressEvaluation(BaseCallback):
         identified = float(np.mean(end)) if end else 0.0
         self.logger.record("eval/pictures_to_99", pictures)
         self.logger.record("eval/identified_at_end", identified)
+        self._evaluated = True
         if self.progress is not None:
-            returns = [info["r"] for info in self.model.ep_info_buffer or []]
             self.progress.show(
-                ret=f"{np.mean(returns):.2f}" if returns else "-",
-                identified=f"{100 * identified:.0f}%",
-                pictures99=f"{pictures:.2f}",
+                ret=self._mean_return(), id=f"{100 * identified:.0f}%", pic99=f"{pictures:.2f}"
             )
         return pictures
 

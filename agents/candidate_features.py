@@ -37,37 +37,60 @@ between identical robots is the robot's own: its candidates, and the categorical
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from baselines.active import CandidateSet
 
-#: The observation layout of this module. A saved agent records the layout it was trained on;
-#: agents of another layout are refused when loaded (:func:`agents.policy.load_model`).
+
+@dataclass(frozen=True)
+class Feature:
+    """One column of the observation: its ``name`` (how code reads it) and its ``meaning`` (what
+    the number is, with its unit). A saved agent records both (:class:`agents.spec.AgentSpec`);
+    an agent whose features differ by either is refused when loaded."""
+
+    name: str
+    meaning: str
+
+
+#: The features of each candidate, in column order.
+CANDIDATE_SPEC = (
+    Feature("speed", "forward speed over v_max (on swarm duty the deviation, before the budget)"),
+    Feature("turn", "turn rate over omega_max (on swarm duty the deviation, before the budget)"),
+    Feature("entropy_after", "expected entropy of the belief after the next picture (nats)"),
+    Feature("information", "entropy over the hypotheses now minus entropy_after (nats)"),
+    Feature("gap_to_best", "entropy_after minus the smallest of the robot's candidates (nats)"),
+    Feature("energy", "energy over the interval (m of wheel travel) over v_max times the interval"),
+    Feature("reach", "log1p of the displacement's length over the pixel noise"),
+)
+#: The features of the robot's context, in column order.
+CONTEXT_SPEC = (
+    Feature("entropy_now", "entropy of the belief over the robot's hypotheses (nats)"),
+    Feature("largest_belief", "the largest belief of a row"),
+    Feature("absent", "the belief that the robot is in no row"),
+    Feature("rows", "log(rows + 1) / log(1001), rows in the picture"),
+    Feature("bumper", "1 after a contact in the last control step"),
+    Feature("headings", "1 when detections carry headings"),
+    Feature("on_duty", "1 on swarm duty"),
+    Feature("budget", "the swarm deviation budget (0 in free motion)"),
+    Feature("p_detect", "the probability that a robot is in a picture"),
+    Feature("scored", "1 when the candidates were scored (0 before the first picture with a row)"),
+)
+#: Column of each feature by name.
+CANDIDATE_COLUMN = {f.name: i for i, f in enumerate(CANDIDATE_SPEC)}
+CONTEXT_COLUMN = {f.name: i for i, f in enumerate(CONTEXT_SPEC)}
+
+#: The observation layout of this module. A saved agent records the layout it was trained on and
+#: its features (:mod:`agents.spec`); agents of another layout are refused when loaded.
 LAYOUT = 2
 #: Candidate commands per robot and picture (the policy's discrete choices).
 CANDIDATES = 8
-CANDIDATE_FEATURES = 7
-CONTEXT_FEATURES = 10
+CANDIDATE_FEATURES = len(CANDIDATE_SPEC)
+CONTEXT_FEATURES = len(CONTEXT_SPEC)
 #: Beliefs are floored here before taking logs.
 BELIEF_FLOOR = 1e-12
-
-
-def policy_observation_space(candidates: int = CANDIDATES) -> spaces.Dict:
-    """The observation space of one robot (one slot of the vectorized env)."""
-    return spaces.Dict(
-        {
-            "candidates": spaces.Box(-np.inf, np.inf, (candidates, CANDIDATE_FEATURES), np.float32),
-            "context": spaces.Box(-np.inf, np.inf, (CONTEXT_FEATURES,), np.float32),
-        }
-    )
-
-
-def policy_action_space(candidates: int = CANDIDATES) -> spaces.Discrete:
-    """The action space of one robot: which candidate it drives."""
-    return spaces.Discrete(candidates)
 
 
 def empty_observation(n: int, candidates: int = CANDIDATES) -> dict[str, np.ndarray]:
@@ -91,25 +114,28 @@ def candidate_observation(
     Args:
         cset: the candidates and their predictions (``GreedyIdentification.score``), or
             None when nothing was scored (the observation is then zeros but the context).
-        context: ``(R, CONTEXT_FEATURES - 1)`` the context but its last entry (see the module).
+        context: ``(R, CONTEXT_FEATURES - 1)`` the context but ``scored``, in
+            :data:`CONTEXT_SPEC`'s order.
         scale: ``(v_max, omega_max)`` of the robot.
         duration: the picture interval (s).
         pixel_noise: standard deviation of a detection (image units).
         candidates: ``C``.
     """
     out = empty_observation(len(context), candidates)
-    out["context"][:, :-1] = context
+    scored = CONTEXT_COLUMN["scored"]
+    out["context"][:, :scored] = context
     if cset is None:
         return out
     rows = out["candidates"]
-    rows[..., 0] = cset.commands[..., 0] / scale[0]
-    rows[..., 1] = cset.commands[..., 1] / scale[1]
-    rows[..., 2] = cset.entropy
-    rows[..., 3] = cset.now[:, None] - cset.entropy
-    rows[..., 4] = cset.entropy - cset.entropy.min(axis=1, keepdims=True)
-    rows[..., 5] = cset.spent / (scale[0] * duration)
-    rows[..., 6] = np.log1p(cset.reach / max(pixel_noise, 1e-3))
-    out["context"][:, -1] = 1.0
+    col = CANDIDATE_COLUMN
+    rows[..., col["speed"]] = cset.commands[..., 0] / scale[0]
+    rows[..., col["turn"]] = cset.commands[..., 1] / scale[1]
+    rows[..., col["entropy_after"]] = cset.entropy
+    rows[..., col["information"]] = cset.now[:, None] - cset.entropy
+    rows[..., col["gap_to_best"]] = cset.entropy - cset.entropy.min(axis=1, keepdims=True)
+    rows[..., col["energy"]] = cset.spent / (scale[0] * duration)
+    rows[..., col["reach"]] = np.log1p(cset.reach / max(pixel_noise, 1e-3))
+    out["context"][:, scored] = 1.0
     return out
 
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from agents.candidate_features import (
     CANDIDATES,
+    CONTEXT_COLUMN,
     CONTEXT_FEATURES,
     belief_context,
     candidate_observation,
@@ -66,14 +67,15 @@ class CandidateChooser(GreedyIdentification):
         config = view.config
         cset = self.score()
         belief = np.asarray(view.belief, np.float64)
+        col = CONTEXT_COLUMN
         context = np.zeros((self.n, CONTEXT_FEATURES - 1))
-        context[:, :3] = belief_context(belief, None if cset is None else cset.now)
-        context[:, 3] = math.log(len(step.rows) + 1.0) / math.log(1001.0)
-        context[:, 4] = step.bumper
-        context[:, 5] = float(model.orientation)
-        context[:, 6] = float(self.following)
-        context[:, 7] = self.budget if self.following else 0.0
-        context[:, 8] = model.p_detect
+        context[:, : col["rows"]] = belief_context(belief, None if cset is None else cset.now)
+        context[:, col["rows"]] = math.log(len(step.rows) + 1.0) / math.log(1001.0)
+        context[:, col["bumper"]] = step.bumper
+        context[:, col["headings"]] = float(model.orientation)
+        context[:, col["on_duty"]] = float(self.following)
+        context[:, col["budget"]] = self.budget if self.following else 0.0
+        context[:, col["p_detect"]] = model.p_detect
         robot = config.robot
         self.cset = cset
         self.observation = candidate_observation(

@@ -5,10 +5,11 @@ is every robot's own ``bayes`` identifier and whose excitation is a
 :class:`agents.candidates.CandidateChooser`. The policy decides at every picture: its action is
 the index of the candidate command each robot drives, held until the next picture (with the
 back-off after a bump), so one decision is one picture interval. The condition's excitation
-(:func:`condition_excitation`) turns it into commands: in ``free`` motion the candidate is the
-command; on ``swarm`` duty every robot follows one shared command stream and the candidate is a
-deviation of at most ``budget`` of the robot's limits. The crew returns the policy observations
-of :mod:`agents.candidate_features` and the reward of ``Crew.step``.
+(``agents.spec.AgentSpec.excitation``) turns it into commands: in ``free`` motion the candidate
+is the command; on ``swarm`` duty every robot follows one shared command stream and the
+candidate is a deviation of at most ``budget`` of the robot's limits. The crew returns the
+policy observations of :mod:`agents.candidate_features` and the reward of the spec
+(``agents.spec.Reward``).
 """
 
 from __future__ import annotations
@@ -17,34 +18,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.candidate_features import CANDIDATES, information, true_belief, true_rows
+from agents.candidate_features import true_belief, true_rows
 from agents.candidates import CandidateChooser
+from agents.spec import AgentSpec
 from anonloc_env.actions import to_commands
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import energy
-from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations import SwarmDuty
 from baselines.localizers import BayesLocalizer
 from baselines.policies import Team
 from baselines.steps import Step
-
-CONDITIONS = ("free", "swarm")
-REWARDS = ("log_belief", "information", "team")
-#: The identity term of the ``log_belief`` reward is floored here (nats: log 1e-3 = -6.9), so that
-#: one robot's bad picture cannot dominate a batch.
-LOG_BELIEF_FLOOR = 1e-3
-
-
-def condition_excitation(
-    condition: str, own: Excitation, budget: float, common_seed: int = 0
-) -> Excitation:
-    """The excitation of a condition: ``own`` itself (``free``), or ``own`` as the bounded
-    deviation from a shared command stream (``swarm``, see
-    ``baselines.excitations.SwarmDuty``)."""
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
-    if condition == "free":
-        return own
-    return SwarmDuty(own, budget=budget, common_seed=common_seed)
 
 
 @dataclass(frozen=True)
@@ -69,45 +52,24 @@ class Crew:
     Args:
         env: the environment (its reward function gives the energy term: use
             ``anonloc_env.EnergyCost`` so that the identity information is not computed twice).
-        condition: ``"free"`` or ``"swarm"``.
-        budget: on swarm duty, the largest deviation as a fraction of ``v_max`` and
-            ``omega_max``.
-        information_weight: weight of the identity term of the reward (per nat).
-        reward: the identity term, at each picture: ``log_belief``, the log of the belief the
-            robot gives its true row (floored at ``LOG_BELIEF_FLOOR``), so that every picture
-            spent unsure costs what is still unknown; or ``information``, the nats gained since
-            the previous picture (the env's ``InformationGain``; it telescopes, so only the
-            discount rewards being quick); or ``team``, the mean over the env's robots of their
-            ``log_belief`` terms, the same for every robot: a robot's motion also decides how
-            well the others are told apart, which a reward of its own does not see.
-        candidates: candidates per robot and picture (the policy's choices).
+        spec: the agent (:class:`agents.spec.AgentSpec`): its candidates, its reward's identity
+            term (``spec.reward``) and its condition (``free`` or ``swarm``) and budget.
     """
 
-    def __init__(
-        self,
-        env: AnonLocEnv,
-        condition: str = "free",
-        budget: float = 0.2,
-        information_weight: float = 1.0,
-        reward: str = "log_belief",
-        candidates: int = CANDIDATES,
-    ) -> None:
-        if reward not in REWARDS:
-            raise ValueError(f"reward must be one of {list(REWARDS)}, got {reward!r}")
-        self.reward = reward
+    def __init__(self, env: AnonLocEnv, spec: AgentSpec | None = None) -> None:
+        spec = spec if spec is not None else AgentSpec()
+        if spec.condition == "mixed":
+            raise ValueError("a crew acts in one condition: 'free' or 'swarm', not 'mixed'")
+        self.spec = spec
         self.env = env
         config = env.config
         self.config = config
         self.agents = list(env.possible_agents)
         self.n = config.n_robots
-        self.condition = condition
-        self.budget = budget
-        self.information_weight = information_weight
         self.capacity = env.capacity
         self.localizer = BayesLocalizer(config, self.n)
-        self.chooser = CandidateChooser(candidates)
-        excitation = condition_excitation(condition, self.chooser, budget)
-        self.team = Team(config, self.localizer, excitation)
+        self.chooser = CandidateChooser(spec.candidates)
+        self.team = Team(config, self.localizer, spec.excitation(self.chooser))
         self._step: Step | None = None
         self._belief_true = np.zeros(self.n)
 
@@ -116,7 +78,7 @@ class Crew:
         (the swarm's shared stream included) are drawn from the env's generator."""
         observations, infos = self.env.reset(seed=seed)
         entropy = self.env.rng.integers(0, 2**63, size=2)
-        if isinstance(self.team.excitation, SwarmDuty):
+        if isinstance(self.team.excitation, SwarmDuty):  # the swarm's stream, of this episode
             self.team.excitation.shared.common_seed = int(entropy[0])
         self.team.reset(np.random.SeedSequence(int(entropy[1])).spawn(self.n))
         step = self.team.observe([observations[a] for a in self.agents])
@@ -148,13 +110,7 @@ class Crew:
         truth = result.true_index
         if step.new_picture:
             belief = true_belief(self.localizer.belief, truth)
-            if self.reward == "information":
-                identity = information(self._belief_true, belief)
-            else:
-                identity = np.log(np.maximum(belief, LOG_BELIEF_FLOOR))
-                if self.reward == "team":
-                    identity = np.full(self.n, identity.mean())
-            reward += self.information_weight * identity
+            reward += self.spec.reward.term(self._belief_true, belief)
             self._belief_true = belief
         present = truth >= 0
         return StepResult(

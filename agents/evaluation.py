@@ -15,8 +15,9 @@ import numpy as np
 
 import anonloc_env
 import baselines
+from agents.spec import on_duty
 from anonloc_env.config import EnvConfig
-from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations import Excitation
 from baselines.runner import EpisodeResult, run_episode
 from baselines.scoring import pictures_to_identify
 
@@ -35,8 +36,7 @@ def play(
     env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
     out = []
     for seed in seeds:
-        own = make()
-        excitation = own if condition == "free" else SwarmDuty(own, budget, common_seed=seed)
+        excitation = on_duty(condition, make(), budget, common_seed=seed)
         team = baselines.make_team("bayes", env, excitation=excitation)
         out.append(run_episode(env, team, seed, max_pictures=pictures + 1))
     env.close()

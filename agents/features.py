@@ -78,10 +78,13 @@ class CandidatePolicy(ActorCriticPolicy):
     """:class:`CandidateScorer` as an SB3 actor-critic over ``Discrete(C)`` (which candidate).
 
     Args:
-        observation_space: :func:`agents.candidate_features.policy_observation_space`.
-        action_space: :func:`agents.candidate_features.policy_action_space`.
+        observation_space: ``agents.spec.AgentSpec.observation_space()``.
+        action_space: ``agents.spec.AgentSpec.action_space()``.
         lr_schedule: SB3's learning-rate schedule.
         hidden: width of the scorer's encodings.
+        spec: the agent's spec as JSON (``agents.spec.AgentSpec.to_json``), kept in
+            ``policy_kwargs`` so that it is saved with the model and checked when it is loaded
+            (``agents.spec.check_saved``); None for a policy without one.
         **kwargs: passed to ``ActorCriticPolicy`` (``net_arch`` is not used).
     """
 
@@ -91,9 +94,11 @@ class CandidatePolicy(ActorCriticPolicy):
         action_space: spaces.Space,
         lr_schedule: Any,
         hidden: int = 64,
+        spec: dict[str, Any] | None = None,
         **kwargs: Any,
     ) -> None:
         self.hidden = hidden
+        self.spec = spec
         kwargs.pop("net_arch", None)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=[], **kwargs)
 
@@ -106,6 +111,7 @@ class CandidatePolicy(ActorCriticPolicy):
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
         data["hidden"] = self.hidden
+        data["spec"] = self.spec
         return data
 
     def _evaluate(self, obs: Any) -> tuple[Distribution, torch.Tensor]:

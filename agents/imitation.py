@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.candidate_features import CONTEXT_COLUMN
 from agents.vec import AnonLocVecEnv
 
 
@@ -41,7 +42,7 @@ class Demonstrations:
     @property
     def scored(self) -> np.ndarray:
         """``(M,)`` whether the decision's candidates were scored (the others carry no label)."""
-        return self.context[:, -1] > 0.5
+        return self.context[:, CONTEXT_COLUMN["scored"]] > 0.5
 
 
 def collect_demonstrations(

@@ -26,10 +26,9 @@ from agents.candidate_features import (
     CANDIDATE_FEATURES,
     CANDIDATES,
     CONTEXT_FEATURES,
-    policy_action_space,
-    policy_observation_space,
 )
 from agents.crew import Crew
+from agents.spec import AgentSpec
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import PRESETS
@@ -66,7 +65,7 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
 
     ## Observation Space
     With ``observation="dict"`` (the default) each agent gets the dict of
-    :func:`agents.candidate_features.policy_observation_space`, the same as a slot of
+    ``agents.spec.AgentSpec.observation_space``, the same as a slot of
     :class:`agents.vec.AnonLocVecEnv`. With ``observation="flat"`` it gets those two arrays
     concatenated into one float32 vector of :func:`flat_size` entries (``candidates``
     row-major, then ``context``): the form RLlib's modules take (:func:`unflatten` undoes it).
@@ -77,8 +76,8 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
     ## Rewards
     The crew's (:meth:`agents.crew.Crew.step`): one step here is one picture interval (the
     action is held until the next picture); the reward adds up the energy term of its control
-    steps and, at the picture, ``information_weight`` times the identity term (by default the log
-    of the belief the robot gives its true row).
+    steps and, at the picture, the identity term of the spec's reward (``agents.spec.Reward``; by
+    default the log of the belief the robot gives its true row).
 
     ## Episode End
     No terminations; every agent is truncated when the env's ``max_cycles`` control steps are
@@ -89,8 +88,8 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
     decides on its true row of the newest picture) and ``present`` (the robot is in it).
 
     ## Arguments
-    ``config`` (an ``EnvConfig``; ``None`` is the ``default`` preset), ``condition``,
-    ``budget`` and ``information_weight`` (see :class:`agents.crew.Crew`), ``observation``
+    ``config`` (an ``EnvConfig``; ``None`` is the ``default`` preset), ``spec`` (the agent,
+    :class:`agents.spec.AgentSpec`: candidates, reward, condition and budget), ``observation``
     (``"dict"`` or ``"flat"``) and ``render_mode`` (the environment's).
     """
 
@@ -104,9 +103,7 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
     def __init__(
         self,
         config: EnvConfig | None = None,
-        condition: str = "free",
-        budget: float = 0.2,
-        information_weight: float = 1.0,
+        spec: AgentSpec | None = None,
         observation: str = "dict",
         render_mode: str | None = None,
     ) -> None:
@@ -116,7 +113,8 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
             )
         config = config if config is not None else PRESETS["default"]
         env = AnonLocEnv(config, render_mode=render_mode, reward_fn=EnergyCost())
-        self.crew = Crew(env, condition, budget, information_weight)
+        self.spec = spec if spec is not None else AgentSpec()
+        self.crew = Crew(env, self.spec)
         self.config = config
         self.observation_form = observation
         self.render_mode = render_mode
@@ -127,14 +125,14 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
             agent: self._space() for agent in self.possible_agents
         }
         self.action_spaces: dict[str, spaces.Space[Any]] = {
-            agent: policy_action_space() for agent in self.possible_agents
+            agent: self.spec.action_space() for agent in self.possible_agents
         }
         self.state_space = env.state_space
 
     def _space(self) -> spaces.Space[Any]:
         if self.observation_form == "dict":
-            return policy_observation_space()
-        return spaces.Box(-np.inf, np.inf, (flat_size(),), np.float32)
+            return self.spec.observation_space()
+        return spaces.Box(-np.inf, np.inf, (flat_size(self.spec.candidates),), np.float32)
 
     @property
     def max_cycles(self) -> int:

@@ -26,7 +26,8 @@ from gymnasium import spaces
 
 from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from agents.candidates import CandidateChooser
-from agents.crew import condition_excitation
+from agents.saved_agent import check_members, load_failure, run_settings
+from agents.spec import check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.localizers import BayesLocalizer
@@ -99,12 +100,14 @@ def agent_file(path: str | Path) -> Path:
 
 
 def check_layout(path: Path) -> None:
-    """Refuse, before unpickling anything, an agent saved for another observation layout.
+    """Refuse, before unpickling anything, an agent saved for another observation layout (or
+    with members past :mod:`agents.saved_agent`'s size limits, checked before any is read).
 
     Raises:
-        ValueError: the file is not an SB3 save, or its observations are not
-            :data:`agents.candidate_features.LAYOUT`'s.
+        ValueError: the file is not an SB3 save, holds a member too large, or its observations
+            are not :data:`agents.candidate_features.LAYOUT`'s.
     """
+    check_members(path)
     try:
         with zipfile.ZipFile(path) as archive:
             data = json.loads(archive.read("data"))
@@ -118,6 +121,9 @@ def check_layout(path: Path) -> None:
             "agents.candidate_features). "
             "Retrain it with `anonloc train`, or use the bundled agent."
         )
+    spec = saved_spec(path)
+    if spec is not None:
+        check_saved(path, spec)
 
 
 def load_model(path: str | Path) -> Any:
@@ -125,13 +131,17 @@ def load_model(path: str | Path) -> Any:
 
     Raises:
         FileNotFoundError: nothing there.
-        ValueError: an agent of another observation layout.
+        ValueError: an agent of another observation layout, or a file SB3 cannot load (the
+            message names the member at fault).
     """
     from stable_baselines3 import PPO
 
     file = agent_file(path)
     check_layout(file)
-    model = PPO.load(file, device="cpu")
+    try:
+        model = PPO.load(file, device="cpu")
+    except Exception as error:  # torch and pickle raise many kinds; all are one
+        raise load_failure(file, error) from None
     space = model.observation_space
     assert isinstance(space, spaces.Dict)  # check_layout saw its two keys
     shapes = (tuple(space["candidates"].shape or ())[1:], space["context"].shape)
@@ -145,25 +155,18 @@ def load_model(path: str | Path) -> Any:
 
 def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
     """The excitation of the agent saved at ``path`` (an ``agent.zip``, its run folder, or
-    ``"bundled"``), in ``condition`` (default: the one its run recorded, else ``free``; on
-    ``swarm`` duty the agent is the deviation of ``baselines.excitations.SwarmDuty``, with
-    ``budget`` or the run's)."""
+    ``"bundled"``), in ``condition`` (default: the one its spec records, for an older file its
+    run's, else ``free``; ``mixed`` runs ``free``; on ``swarm`` duty the agent is the deviation
+    of ``baselines.excitations.SwarmDuty``, with the spec's or the run's budget, else
+    ``budget``)."""
     file = agent_file(path)
+    train = run_settings(file)  # a bad config.json is named before the model is loaded
     model = load_model(file)
-    record = file.parent / "config.json"
-    train: dict[str, Any] = {}
-    if record.is_file():
-        try:
-            train = dict(json.loads(record.read_text()).get("train", {}))
-        except (ValueError, AttributeError):
-            train = {}
+    spec = saved_spec(file)
+    if spec is not None:  # the agent's own record, before its run folder's
+        train = {"condition": spec.condition, "budget": spec.budget}
     condition = condition or str(train.get("condition", "free"))
-    if condition == "mixed":
-        condition = "free"
-    own = LearnedExcitation(model)
-    if condition == "free":
-        return own
-    return condition_excitation(condition, own, float(train.get("budget", budget)))
+    return on_duty(condition, LearnedExcitation(model), float(train.get("budget", budget)))
 
 
 def team(

@@ -38,6 +38,7 @@ Needs the ``ray`` and ``rl`` extras (``ray[rllib]`` and torch).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import math
 import time
@@ -70,21 +71,18 @@ def make_env(env_config: dict[str, Any]) -> Any:
     :class:`~agents.pettingzoo.BeliefParallelEnv` with flat observations.
 
     Args:
-        env_config: ``{"config": EnvConfig, "condition", "budget", "information_weight"}``
-            (RLlib's ``EnvContext``; only ``config`` is required).
+        env_config: ``{"config": EnvConfig, "spec": AgentSpec.to_json()}`` (RLlib's
+            ``EnvContext``; only ``config`` is required; the spec travels as JSON to the env
+            runners).
     """
     _rllib()
     from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 
     from agents.pettingzoo import BeliefParallelEnv
+    from agents.spec import AgentSpec
 
-    env = BeliefParallelEnv(
-        env_config["config"],
-        condition=env_config.get("condition", "free"),
-        budget=env_config.get("budget", 0.2),
-        information_weight=env_config.get("information_weight", 1.0),
-        observation="flat",
-    )
+    spec = AgentSpec.from_json(env_config.get("spec", {}))
+    env = BeliefParallelEnv(env_config["config"], spec, observation="flat")
     return ParallelPettingZooEnv(env)
 
 
@@ -157,9 +155,7 @@ def make_ppo_config(
     config: EnvConfig,
     settings: PPOSettings | None = None,
     *,
-    condition: str = "free",
-    budget: float = 0.2,
-    information_weight: float = 1.0,
+    spec: Any = None,
     seed: int | None = 0,
 ) -> Any:
     """An RLlib ``PPOConfig`` (new API stack) training one shared
@@ -168,17 +164,17 @@ def make_ppo_config(
     Args:
         config: the scenario.
         settings: PPO's hyperparameters (default :class:`PPOSettings`).
-        condition: ``"free"`` or ``"swarm"`` (see :mod:`agents.crew`).
-        budget: on swarm duty, the largest deviation as a fraction of the robot's limits.
-        information_weight: reward per nat of information about the robot's identity.
+        spec: the agent (``agents.spec.AgentSpec``: candidates, reward, condition ``free`` or
+            ``swarm``, budget); default ``AgentSpec()``.
         seed: seeds RLlib (module weights, sampling) and its envs; ``None``: fresh entropy.
     """
     if not isinstance(config, EnvConfig):
         raise TypeError(f"config must be an EnvConfig, got {type(config).__name__}")
-    from agents.crew import CONDITIONS
+    from agents.spec import AgentSpec
 
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
+    spec = spec if spec is not None else AgentSpec()
+    if not isinstance(spec, AgentSpec) or spec.condition == "mixed":
+        raise ValueError(f"spec must be an AgentSpec of condition 'free' or 'swarm', got {spec!r}")
     settings = settings if settings is not None else PPOSettings()
     _rllib()
     from ray.rllib.algorithms.ppo import PPOConfig
@@ -193,12 +189,7 @@ def make_ppo_config(
         .api_stack(enable_rl_module_and_learner=True, enable_env_runner_and_connector_v2=True)
         .environment(
             ENV_NAME,
-            env_config={
-                "config": config,
-                "condition": condition,
-                "budget": budget,
-                "information_weight": information_weight,
-            },
+            env_config={"config": config, "spec": spec.to_json()},
         )
         .framework("torch")
         .env_runners(
@@ -379,11 +370,12 @@ def trained_module(source: Any) -> Any:
     return module
 
 
-def export_agent(source: Any, path: str | Path) -> Path:
+def export_agent(source: Any, path: str | Path, spec: Any = None) -> Path:
     """Save the trained RLlib module of ``source`` as an SB3 agent zip, loadable by
     ``agents.policy.load_model``, ``baselines.make("agent", env, path=path)`` and
-    ``anonloc eval --agent path`` (pass ``condition="swarm"`` to ``baselines.make`` for a module
-    trained on swarm duty: the zip records no condition).
+    ``anonloc eval --agent path``, with the agent's ``spec`` (the one the module was trained
+    with, given to :func:`make_ppo_config`; default ``AgentSpec()``), so that it runs in the
+    spec's condition and budget.
 
     The zip holds an SB3 ``PPO`` whose policy is :class:`agents.features.CandidatePolicy` with
     the module's scorer weights copied unchanged (both are ``CandidateScorer``), so it scores
@@ -405,16 +397,19 @@ def export_agent(source: Any, path: str | Path) -> Path:
     from stable_baselines3 import PPO
 
     from agents.features import CandidatePolicy
+    from agents.spec import AgentSpec
     from agents.vec import AnonLocVecEnv
     from anonloc_env.presets import make_config
 
-    # The spaces depend on the number of candidates only: any small scenario builds the policy.
-    env = AnonLocVecEnv(make_config(n_robots=2), candidates=module.candidates)
+    spec = spec if spec is not None else AgentSpec()
+    spec = dataclasses.replace(spec, candidates=module.candidates)
+    # The spaces depend on the spec only: any small scenario builds the policy.
+    env = AnonLocVecEnv(make_config(n_robots=2), spec=spec.in_scenario("free", spec.budget))
     try:
         model = PPO(
             CandidatePolicy,
             env,
-            policy_kwargs={"hidden": module.hidden},
+            policy_kwargs={"hidden": module.hidden, "spec": spec.to_json()},
             device="cpu",
         )
         policy = model.policy

@@ -91,6 +91,22 @@ def read_config(directory: Path) -> dict[str, Any]:
         ) from None
 
 
+def set_aside_logs(directory: Path) -> Path | None:
+    """Move a run's ``tb/`` (TensorBoard events and ``progress.csv``) to ``tb.restart-K/`` (the
+    first free K) before the run trains again from step 0: the killed attempt's logs are kept,
+    and TensorBoard never shows two curves over the same steps in one folder. None when there
+    was no ``tb/``."""
+    logs = directory / "tb"
+    if not logs.is_dir():
+        return None
+    k = 1
+    while (directory / f"tb.restart-{k}").exists():
+        k += 1
+    kept = directory / f"tb.restart-{k}"
+    logs.rename(kept)
+    return kept
+
+
 @contextlib.contextmanager
 def interrupt_on_sigterm() -> Iterator[None]:
     """SIGTERM (a scheduler ending the job, ``kill``) stops training as Ctrl-C does: inside the

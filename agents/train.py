@@ -29,15 +29,21 @@ from pathlib import Path
 from typing import Any
 
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
-from agents.crew import CONDITIONS, REWARDS
-from agents.run_folder import RunLock, interrupt_on_sigterm, read_config, write_config
+from agents.run_folder import (
+    RunLock,
+    interrupt_on_sigterm,
+    read_config,
+    set_aside_logs,
+    write_config,
+)
+from agents.spec import CONDITIONS, IDENTITY_TERMS, AgentSpec, Reward
 from anonloc_env._checks import check_choice, check_number
 from anonloc_env.config import EnvConfig
 from anonloc_env.presets import make_config
 
 #: ``condition`` values: one scenario on free motion or swarm duty, or scenarios drawn across
 #: conditions (:mod:`agents.conditions`) for a general agent.
-TRAIN_CONDITIONS = (*CONDITIONS, "mixed")
+TRAIN_CONDITIONS = CONDITIONS
 
 
 @dataclass(frozen=True)
@@ -67,7 +73,7 @@ class TrainConfig:
     """Width of the candidate scorer's encodings (:class:`agents.features.CandidateScorer`)."""
     imitation: int = 0
     """Robot-decisions of ``greedy`` to imitate before PPO (:mod:`agents.imitation`); 0: PPO
-    starts from a random network."""
+    starts from ``uniform`` (the scorer's last layer zeroed: every logit 0)."""
     imitation_epochs: int = 15
     """Passes over the demonstrations."""
     temperature: float = 10.0
@@ -118,7 +124,7 @@ class TrainConfig:
         check_number("imitation_epochs", self.imitation_epochs, 1, 10_000, integer=True)
         check_number("temperature", self.temperature, 0.0, 1e6, low_open=True)
         check_number("eval_episodes", self.eval_episodes, 0, 10_000, integer=True)
-        check_choice("reward", self.reward, REWARDS)
+        check_choice("reward", self.reward, IDENTITY_TERMS)
         if self.energy_weight is not None:
             check_number("energy_weight", self.energy_weight, 0.0)
         check_number("budget", self.budget, 0.0, 1.0)
@@ -139,6 +145,13 @@ class TrainConfig:
         if self.name is not None and not re.fullmatch(r"[A-Za-z0-9._-]+", self.name):
             raise ValueError(f"name must use letters, digits, '.', '_' or '-', got {self.name!r}")
         self.env_config()  # a bad scenario fails here, before any work
+
+    def spec(self) -> AgentSpec:
+        """The agent this run trains (:class:`agents.spec.AgentSpec`), built from this config's
+        ``condition``, ``budget``, ``reward``, ``information_weight`` and ``energy_weight``;
+        saved with the agent."""
+        reward = Reward(self.reward, self.information_weight, self.energy_weight)
+        return AgentSpec(reward=reward, condition=self.condition, budget=self.budget)
 
     def env_config(self) -> EnvConfig:
         """The scenario's config (with ``energy_weight`` applied)."""
@@ -197,7 +210,7 @@ def build_model(config: TrainConfig, vec_env: Any) -> Any:
         ent_coef=config.ent_coef,
         seed=config.seed,
         device="cpu",
-        policy_kwargs={"hidden": config.hidden},
+        policy_kwargs={"hidden": config.hidden, "spec": config.spec().to_json()},
         verbose=0,
     )
 
@@ -207,26 +220,14 @@ def make_vec_env(config: TrainConfig) -> Any:
     from agents.conditions import ConditionRanges, training_scenarios
     from agents.vec import AnonLocVecEnv
 
+    spec = config.spec()
     if config.condition == "mixed":
         ranges = ConditionRanges()
         if config.energy_weight is not None:
             ranges = dataclasses.replace(ranges, energy_weight=config.energy_weight)
         scenarios = training_scenarios(config.n_envs, config.seed, ranges)
-        return AnonLocVecEnv(
-            scenarios[0].config,
-            information_weight=config.information_weight,
-            reward=config.reward,
-            scenarios=scenarios,
-            redraw=ranges,
-        )
-    return AnonLocVecEnv(
-        config.env_config(),
-        n_envs=config.n_envs,
-        condition=config.condition,
-        budget=config.budget,
-        information_weight=config.information_weight,
-        reward=config.reward,
-    )
+        return AnonLocVecEnv(scenarios[0].config, spec=spec, scenarios=scenarios, redraw=ranges)
+    return AnonLocVecEnv(config.env_config(), n_envs=config.n_envs, spec=spec)
 
 
 def evaluation_scenario(config: TrainConfig) -> tuple[EnvConfig, str, float]:
@@ -326,7 +327,10 @@ def resume(
         if not list((directory / "checkpoints").glob("agent_*_steps.zip")):
             # Killed (kill -9, a power cut) before its first checkpoint: nothing was saved, so
             # the run starts again from step 0 rather than being a dead end.
-            say(f"no checkpoint in {directory / 'checkpoints'}: training the run from step 0")
+            kept = set_aside_logs(directory)
+            moved = "" if kept is None else f" (the earlier logs are kept in {kept})"
+            where = directory / "checkpoints"
+            say(f"no checkpoint in {where}: training the run from step 0{moved}")
             return _learn(config, directory, None)
         return _learn(config, directory, latest_checkpoint(directory, notify=notify))
 
@@ -357,6 +361,8 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
             model = build_model(config, vec_env)
             if config.imitation:
                 start_from_greedy(model, vec_env, config)
+            else:
+                start_from_uniform(model)
         else:
             model = PPO.load(checkpoint, env=vec_env, device="cpu")
         checkpoints = AtomicCheckpoint(
@@ -404,6 +410,18 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     return TrainResult(
         directory, agent, int(model.num_timesteps), time.perf_counter() - start, comparison
     )
+
+
+def start_from_uniform(model: Any) -> None:
+    """Zero the scorer's last layer: every logit is 0, so PPO starts from ``uniform`` exactly (a
+    fair draw among the candidates, the policy's no-learning ablation) and whatever it gains
+    over its start is learned; the value head and the encodings keep their random start."""
+    import torch
+
+    last = model.policy.scorer.score[-1]
+    with torch.no_grad():
+        last.weight.zero_()
+        last.bias.zero_()
 
 
 def start_from_greedy(model: Any, vec_env: Any, config: TrainConfig) -> list[float]:

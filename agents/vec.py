@@ -35,9 +35,9 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-from agents.candidate_features import CANDIDATES, policy_action_space, policy_observation_space
 from agents.conditions import ConditionRanges, Scenario, draw_scenario
 from agents.crew import Crew
+from agents.spec import AgentSpec
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.rewards import EnergyCost
@@ -49,14 +49,10 @@ class AnonLocVecEnv(VecEnv):
     Args:
         config: the scenario.
         n_envs: number K of env copies (each with the config's N robots).
-        condition: ``"free"`` or ``"swarm"`` (see :mod:`agents.crew`).
-        budget: on swarm duty, the largest deviation as a fraction of the robot's limits.
-        information_weight: weight of the identity term of the reward (the energy term's weight
-            is the config's ``reward.energy_weight``).
-        reward: the identity term: ``log_belief`` or ``information`` (see :class:`Crew`).
+        spec: the agent (:class:`agents.spec.AgentSpec`: candidates, reward, condition and
+            budget; the energy term's weight is the config's ``reward.energy_weight``).
         make_env: builds one copy from the config (default: ``AnonLocEnv`` with the
             ``EnergyCost`` reward; the information term is computed by the crew).
-        candidates: candidates per robot and picture (the action is one of them).
         scenarios: one scenario (config, condition and budget) per copy instead of ``config``
             for all (training across conditions, :mod:`agents.conditions`); the number of
             robots may differ between copies. ``n_envs`` is then ignored.
@@ -69,12 +65,8 @@ class AnonLocVecEnv(VecEnv):
         self,
         config: EnvConfig,
         n_envs: int = 1,
-        condition: str = "free",
-        budget: float = 0.2,
-        information_weight: float = 1.0,
-        reward: str = "log_belief",
+        spec: AgentSpec | None = None,
         make_env: Callable[[EnvConfig], AnonLocEnv] | None = None,
-        candidates: int = CANDIDATES,
         scenarios: Sequence[Scenario] | None = None,
         redraw: ConditionRanges | None = None,
     ) -> None:
@@ -82,16 +74,12 @@ class AnonLocVecEnv(VecEnv):
             raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
         build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
         self.config = config
-        drawn = list(scenarios or [Scenario(config, condition, budget)] * int(n_envs))
+        self.spec = spec = spec if spec is not None else AgentSpec()
+        drawn = list(scenarios or [Scenario(config, spec.condition, spec.budget)] * int(n_envs))
 
         def crew(scenario: Scenario) -> Crew:
             return Crew(
-                build(scenario.config),
-                scenario.condition,
-                scenario.budget,
-                information_weight,
-                reward,
-                candidates,
+                build(scenario.config), spec.in_scenario(scenario.condition, scenario.budget)
             )
 
         self._crew = crew
@@ -104,8 +92,8 @@ class AnonLocVecEnv(VecEnv):
         self.render_mode = None
         super().__init__(
             int(self.starts[-1]),
-            policy_observation_space(candidates),
-            policy_action_space(candidates),
+            spec.observation_space(),
+            spec.action_space(),
         )
         self._copy_seeds: list[int | None] = [None] * self.n_envs
         self._actions: np.ndarray | None = None

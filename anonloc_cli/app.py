@@ -18,6 +18,7 @@ except ModuleNotFoundError as missing:  # the script is installed even without t
     sys.stderr.write("anonloc: the command line needs its extra: pip install 'anonloc[cli]'\n")
     raise SystemExit(1) from None
 
+from anonloc_cli.config_options import config_fields, with_config_options  # ast, no import
 from anonloc_cli.failures import failures_reported  # Typer alone at the top
 from anonloc_cli.options import (  # Typer's aliases and their checks, nothing heavy
     SHOW_SETS,
@@ -236,7 +237,10 @@ def render(
     scenario: ShownScenario = None,
     policy: ShownPolicy = "bayes",
     seed: EpisodeSeed = 0,
-    steps: Annotated[int, typer.Option(min=1, help="Control steps to play.")] = 200,
+    steps: Annotated[
+        int,
+        typer.Option(min=1, help="Control steps to play (at most the scenario's max_cycles)."),
+    ] = 200,
     fps: Annotated[
         float, typer.Option(min=0.1, help="Frames per second of simulated time.")
     ] = 20.0,
@@ -257,6 +261,7 @@ def render(
 
         command.check_output(out, human)
         resolved = _shown(scenario, set_ or [])
+        command.check_steps(steps, resolved)
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.main(
@@ -275,9 +280,7 @@ def detect(
             "grid: image_pixels_per_unit, image_size, principal_point."
         ),
     ],
-    out: Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else .csv.")] = Path(
-        "detections.csv"
-    ),
+    out: OutTable = Path("detections.csv"),
     skip_bad: Annotated[
         bool,
         typer.Option(
@@ -314,10 +317,10 @@ def frame(
         int,
         typer.Option(
             min=0,
-            help="Control steps before the frame (default: just after the second picture, "
-            "while some guesses are still wrong).",
+            help="Control steps before the frame (default: the moment the second picture is "
+            "taken, while some robots are still undecided). At most the scenario's max_cycles.",
         ),
-    ] = 30,
+    ] = 20,
     set_: Sets = None,
     preset: Annotated[
         str | None, typer.Option(hidden=True, help="Deprecated: use --scenario.")
@@ -338,13 +341,22 @@ def frame(
             scenario = preset
         command.check_png(out)
         resolved = _shown(scenario, set_ or [])
+        command.check_steps(steps, resolved)
         name = teams.check_policy(policy)
         teams.check_team(name, resolved.config, mode="corrected")
         status = command.frame(resolved, name, out=out, seed=seed, steps=steps, quiet=quiet)
     raise typer.Exit(status)
 
 
+#: ``TrainConfig``'s fields, read from its source (nothing imported): each becomes an option of
+#: ``train`` but those the command handles itself.
+TRAIN_FIELDS = config_fields("agents", "train.py", "TrainConfig")
+#: Fields ``train`` sets from its own options (``--scenario``/``--set``, ``--quiet``, ...).
+TRAIN_OWN = {"preset", "overrides", "out", "name", "minutes", "timesteps", "progress"}
+
+
 @app.command()
+@with_config_options(TRAIN_FIELDS, skip=TRAIN_OWN)
 def train(
     timesteps: Annotated[
         int | None,
@@ -358,22 +370,6 @@ def train(
     scenario: Annotated[
         str, typer.Option(help="A preset or a TOML/YAML scenario file.")
     ] = "default",
-    condition: Annotated[
-        str,
-        typer.Option(
-            help="free (the chosen candidate is the command), swarm (a bounded deviation), or "
-            "mixed (scenarios drawn across conditions: a general agent; --scenario unused)."
-        ),
-    ] = "free",
-    budget: Annotated[
-        float, typer.Option(help="On swarm duty: the deviation's share of v_max and omega_max.")
-    ] = 0.2,
-    imitation: Annotated[
-        int,
-        typer.Option(min=0, help="Robot-decisions of greedy to imitate before PPO (0: none)."),
-    ] = 0,
-    n_envs: Annotated[int, typer.Option(min=1, help="Env copies (slots = copies x robots).")] = 4,
-    seed: Annotated[int, typer.Option(min=0, help="Seeds PPO, torch and every env copy.")] = 0,
     name: Annotated[
         str | None, typer.Option(help="Run name (default: scenario-condition-ppo-...-time).")
     ] = None,
@@ -389,18 +385,20 @@ def train(
         Path | None,
         typer.Option(
             help="Continue this run folder from its newest good checkpoint, up to the run's "
-            "own total robot-steps (or a new --timesteps)."
+            "own total robot-steps (or a new --timesteps); the run's recorded settings are kept."
         ),
     ] = None,
     set_: Sets = None,
     quiet: Quiet = False,
     verbose: Verbose = 0,
+    config: dict[str, Any] | None = None,
 ) -> None:
     """Train one excitation policy shared by every robot (SB3 PPO); see docs/agents.md.
 
     Writes OUT/<run>/config.json, tb/ (TensorBoard), checkpoints/ and agent.zip. Ctrl-C or
-    SIGTERM saves a checkpoint and agent.zip first; continue with --resume. Needs the rl
-    extra: pip install torch==2.13.0 && pip install 'anonloc[rl]'.
+    SIGTERM saves a checkpoint and agent.zip first; continue with --resume. Every field of
+    agents.train.TrainConfig is an option (generated from it). Needs the rl extra:
+    pip install torch==2.13.0 && pip install 'anonloc[rl]'.
     """
     with failures_reported(verbose):
         from anonloc_cli import learning
@@ -410,15 +408,11 @@ def train(
             out=out,
             scenario=scenario,
             sets=set_ or [],
-            condition=condition,
-            budget=budget,
-            imitation=imitation,
-            n_envs=n_envs,
-            seed=seed,
             name=name,
             minutes=minutes,
             resume=resume,
             quiet=quiet,
+            config=config or {},
         )
     raise typer.Exit(status)
 

@@ -207,8 +207,9 @@ def identified_at(
 def episode_summary(
     rows: Sequence[dict[str, Any]], fraction: float = 0.99
 ) -> tuple[list[str], list[list[str]]]:
-    """Per (policy, scenario): pictures until ``fraction`` of the robots present are identified
-    over every episode (one that never got there counts at its last picture: the censored mean,
+    """Per (policy, scenario): pictures seen until ``fraction`` of the robots present are
+    identified (the one at reset counted as 1, as ``pictures_to_decision`` counts) over every
+    episode (one that never got there counts at its last picture: the censored mean,
     with a 95 % bootstrap interval; and the Kaplan-Meier median, that episode censored there,
     with its 95 % interval), and the energy per robot until then over the episodes that got
     there (95 % normal interval)."""
@@ -224,7 +225,7 @@ def episode_summary(
         "scenario",
         "episodes",
         f"reached {percent}",
-        f"picture reaching {percent}, censored mean (95 % CI)",
+        f"pictures to {percent}, censored mean (95 % CI)",
         "Kaplan-Meier median (95 % CI)",
         "energy per robot, m (95 % CI)",
     ]
@@ -232,7 +233,8 @@ def episode_summary(
     for (policy, scenario), by_seed in episodes.items():
         results = [identified_at(mine, fraction) for mine in by_seed.values()]
         last = [max(len(r["correct_by_picture"]) for r in mine) - 1 for mine in by_seed.values()]
-        times = [end if p is None else p for (p, _), end in zip(results, last, strict=True)]
+        # pictures seen (the one at reset is 1), as "pictures to decision" counts them
+        times = [1 + (end if p is None else p) for (p, _), end in zip(results, last, strict=True)]
         reached = [p is not None for p, _ in results]
         out.append(
             [
@@ -272,7 +274,8 @@ def main(
     policies = [e.label for e in entries]
     excitations = sorted({e.excitation or "" for e in entries})
     excitation = excitations[0] or None if len(excitations) == 1 else ", ".join(excitations)
-    report, records = jobs.run_stored(work, store_path(out), run, description="bench")
+    command = "eval" if identification else "bench"
+    report, records = jobs.run_stored(work, store_path(out), run, description=command)
     rows = [row for u in work if u.key in records for row in records[u.key]["result"]]
     record = provenance.provenance(
         {s.name: config_to_dict(s.config) for s in scenarios},
@@ -290,7 +293,7 @@ def main(
     store.write_json(store.meta_path(out), record)
     headers, table = summary(rows)
     wall = time.perf_counter() - start
-    tables.show("bench: success at each robot's first decision", headers, table)
+    tables.show(f"{command}: success at each robot's first decision", headers, table)
     lines = [
         f"# Bench: {', '.join(policies)} on {', '.join(s.name for s in scenarios)}",
         "",
@@ -302,7 +305,6 @@ def main(
         "",
     ]
     headers, table = episode_summary(rows)
-    command = "eval" if identification else "bench"
     tables.show(
         f"{command}: pictures until 99 % of the robots present are identified", headers, table
     )
@@ -311,8 +313,10 @@ def main(
         "",
         tables.markdown(headers, table),
         "",
-        "Per episode: the first picture (0: the one at reset) at which at least 99 % of the "
-        "robots in it are decided (belief >= 0.99) on their true row. Over every episode: an "
+        "Per episode: the pictures seen (the one at reset counted as 1, as in pictures to "
+        "decision) until at least 99 % of the robots in a picture are decided (belief >= 0.99) "
+        "on their true row; `baselines.scoring.pictures_to_identify` and the tables of "
+        "docs/agents.md count the pictures after the first, one less. Over every episode: an "
         "episode that never got there counts at its last picture in the censored mean (a lower "
         "bound; 95 % bootstrap interval) and is censored there in the Kaplan-Meier median (95 % "
         "interval; `inf`: too few episodes got there to bound it). Energy: the mean wheel "

@@ -3,7 +3,8 @@
 Logging goes to stderr as one JSON object per line (``-v``: INFO, ``-vv``: DEBUG); extra fields
 given to a log call (``log.info("unit done", extra={"key": k})``) become fields of that object.
 Without ``-v`` only warnings and errors are logged. Progress bars (tqdm) also write to stderr and
-are off with ``--quiet``; results and tables go to stdout.
+are off with ``--quiet``; when stderr is not a terminal (a log file, ``nohup``) they write one
+line every 30 s instead (:mod:`anonloc_env._progress`). Results and tables go to stdout.
 """
 
 from __future__ import annotations
@@ -51,18 +52,17 @@ def setup_logging(verbose: int) -> None:
 
 
 class Progress:
-    """A progress bar (tqdm on stderr) that can be switched off; ``update(n)`` in either case."""
+    """A progress bar (tqdm on stderr; in a log, a line every 30 s) that can be switched off;
+    ``update(n)`` in either case."""
 
     def __init__(
         self, total: int, description: str, *, quiet: bool, initial: int = 0, unit: str = "unit"
     ) -> None:
         self.bar: Any = None
         if not quiet:
-            from tqdm import tqdm
+            from anonloc_env._progress import progress_bar
 
-            self.bar = tqdm(
-                total=total, initial=initial, desc=description, unit=unit, dynamic_ncols=True
-            )
+            self.bar = progress_bar(total, description, initial=initial, unit=unit)
 
     def update(self, n: int = 1) -> None:
         if self.bar is not None:

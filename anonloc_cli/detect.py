@@ -40,15 +40,16 @@ from anonloc_cli.console import echo, progress
 from anonloc_cli.scenarios import InputError, Scenario
 
 FRAME_SUFFIXES = (".png", ".jpg", ".jpeg")
-OUT_SUFFIXES = (".csv", ".parquet")
 TYPES = {"frame": "int64", "u": "float64", "v": "float64", "theta": "float64"}
 """Columns and their types (for Parquet)."""
 
 
 def check_output(out: Path) -> None:
-    """Refuse an output format the command cannot write, before any work."""
-    if out.suffix.lower() not in OUT_SUFFIXES:
-        raise InputError(f"--out must end in one of {list(OUT_SUFFIXES)}, got {str(out)!r}")
+    """Refuse an output format the command cannot write, before any work (the same rule as
+    ``bench`` and ``eval``: :func:`anonloc_cli.options.check_table_suffix`)."""
+    from anonloc_cli.options import check_table_suffix
+
+    check_table_suffix(out)
 
 
 def frame_files(folder: Path) -> list[Path]:

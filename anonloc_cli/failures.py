@@ -4,12 +4,18 @@ Every command runs inside :func:`failures_reported`, which sets up logging and t
 busy store, a failed work unit, Ctrl-C and a full disk into a one-line message on stderr and an
 exit status (2: bad input or a backend that cannot run; 1: a busy store, a failed unit or a
 full disk; 130: interrupted). Only Typer is imported at the top.
+
+Ctrl-C works in every command, even one started in the background from a script (``anonloc train
+... &``): such a job inherits SIGINT as *ignored*, and Python then installs no handler, so
+:func:`failures_reported` then installs Python's own (``KeyboardInterrupt``) explicitly.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import signal
+import threading
 from collections.abc import Iterator
 
 import typer
@@ -24,6 +30,9 @@ def failures_reported(verbose: int) -> Iterator[None]:
     from anonloc_cli.console import setup_logging
 
     setup_logging(verbose)
+    main = threading.current_thread() is threading.main_thread()
+    if main and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:  # a background job's
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     from anonloc_cli.jobs import BackendError, UnitError
     from anonloc_cli.scenarios import InputError
     from anonloc_cli.store import StoreBusyError

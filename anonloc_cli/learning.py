@@ -44,18 +44,15 @@ def train(
     out: Path,
     scenario: str,
     sets: Sequence[str],
-    condition: str,
-    budget: float,
-    imitation: int,
-    n_envs: int,
-    seed: int,
     name: str | None,
     minutes: float | None,
     resume: Path | None,
     quiet: bool,
+    config: dict[str, Any],
 ) -> int:
     """Train (or resume) a run; the exit status (130 when Ctrl-C or SIGTERM stopped it, after
-    saving a checkpoint and the agent)."""
+    saving a checkpoint and the agent). ``config``: the other fields of
+    :class:`agents.train.TrainConfig` (not used by a resume, which keeps the run's own)."""
     module = _rl_modules()
     from agents.run_folder import RunBusyError
 
@@ -69,22 +66,18 @@ def train(
                 notify=lambda message: echo(f"Warning: {message}", err=True),
             )
         else:
-            config = _new_config(
+            run = _new_config(
                 module,
                 scenario=scenario,
                 sets=sets,
-                condition=condition,
-                budget=budget,
-                imitation=imitation,
                 timesteps=DEFAULT_TIMESTEPS if timesteps is None else timesteps,
-                n_envs=n_envs,
-                seed=seed,
                 out=str(out),
                 name=name,
                 minutes=minutes,
                 progress=not quiet,
+                **config,
             )
-            result = module.train(config)
+            result = module.train(run)
     except module.Interrupted as stopped:
         echo(
             f"\nInterrupted at {stopped.timesteps} robot-steps; saved {stopped.checkpoint} and "
@@ -99,14 +92,37 @@ def train(
         f"trained {result.timesteps} robot-steps in {result.seconds:.0f} s; "
         f"agent: {result.agent}; logs: tensorboard --logdir {result.directory / 'tb'}"
     )
-    if result.comparison is not None:
-        mine, random = result.comparison
-        change = 100.0 * (random - mine) / random if random else 0.0
+    total = timesteps
+    if total is None:
+        total = DEFAULT_TIMESTEPS if resume is None else _recorded_total(result.directory)
+    if result.timesteps < total:
         echo(
-            f"pictures to 99 % on the evaluation seeds: this agent {mine:.2f}, random motion "
-            f"{random:.2f} ({change:+.0f} % fewer pictures than random)"
+            f"stopped at {100 * result.timesteps / total:.0f} % of the run's {total} robot-steps: "
+            "the --minutes budget ran out. Continue with: anonloc train --resume "
+            f"{result.directory}"
         )
+    if result.comparison is not None:
+        echo(comparison_text(*result.comparison))
     return 0
+
+
+def comparison_text(mine: float, random: float) -> str:
+    """The closing line: the agent's pictures to 99 % against random motion's, in words."""
+    text = (
+        f"pictures to 99 % on the evaluation seeds: this agent {mine:.2f}, random motion "
+        f"{random:.2f}"
+    )
+    if not random or abs(mine - random) < 0.005:
+        return f"{text} (as many as random)"
+    change = 100.0 * abs(random - mine) / random
+    return f"{text} ({change:.0f} % {'fewer' if mine < random else 'more'} pictures than random)"
+
+
+def _recorded_total(directory: Path) -> int:
+    """The total robot-steps a run's ``config.json`` records."""
+    from agents.run_folder import read_config
+
+    return int(read_config(directory).get("timesteps", DEFAULT_TIMESTEPS))
 
 
 def _new_config(module: Any, *, scenario: str, sets: Sequence[str], **options: Any) -> Any:
@@ -155,6 +171,20 @@ def file_hash(path: Path) -> str:
     return digest.hexdigest()[:20]
 
 
+def agent_identity(agent: Path) -> str:
+    """What the loaded agent depends on, for the stored episodes' keys: the hash of its file's
+    bytes and the condition and budget its run's ``config.json`` records (the loader reads them).
+    A retrained ``agent.zip``, or an edited ``config.json``, runs its episodes again."""
+    from agents.saved_agent import run_settings
+
+    file = agent_file(agent)
+    try:
+        settings = run_settings(file)
+    except ValueError as error:
+        raise InputError(f"--agent: {error}") from None
+    return f"{file_hash(file)} {json.dumps(settings, sort_keys=True)}"
+
+
 def evaluate(
     *,
     agent: Path,
@@ -185,10 +215,7 @@ def evaluate(
             resolved = scenarios.build(resolved.name, spec)
     else:
         resolved = scenarios.resolve(scenario, sets)
-    # Stored episodes are keyed on the file's contents: a retrained agent.zip runs again.
-    entries = [
-        bench.Entry("agent", "agent", None, {"path": str(path)}, file_hash(agent_file(path)))
-    ]
+    entries = [bench.Entry("agent", "agent", None, {"path": str(path)}, agent_identity(path))]
     for name in against:
         teams.check_excitation(name)
         entries.append(bench.Entry(name, "bayes", name))

@@ -61,7 +61,11 @@ Sets = Annotated[
     ),
 ]
 OutFolder = Annotated[Path, typer.Option(help="Output folder.")]
-OutTable = Annotated[Path, typer.Option(help="Output file: .parquet for Parquet, else CSV.")]
+OutTable = Annotated[Path, typer.Option(help="Output file: .csv or .parquet.")]
+
+#: The table formats ``--out`` writes (``bench``, ``eval``, ``detect``): any other suffix is
+#: refused before any work, never written as CSV under a misleading name.
+TABLE_SUFFIXES = (".csv", ".parquet")
 
 #: What ``render`` and ``frame`` show without --scenario: the default preset with enough robots
 #: that the first pictures leave some of them wrong (with its 4, every guess is right from the
@@ -94,6 +98,18 @@ def run_options(
     return RunOptions(backend=backend.value, address=address, workers=workers, quiet=quiet)
 
 
+def check_table_suffix(out: Path) -> None:
+    """Refuse a table output whose suffix is not one of :data:`TABLE_SUFFIXES`."""
+    from anonloc_cli.scenarios import InputError
+
+    if out.suffix.lower() not in TABLE_SUFFIXES:
+        given = f"a {out.suffix} file" if out.suffix else "no suffix"
+        raise InputError(
+            f"--out {out}: tables are written as .csv (CSV) or .parquet (Parquet), and this is "
+            f"{given}; give FILE.csv (a spreadsheet opens it) or FILE.parquet"
+        )
+
+
 def check_out(out: Path, *, folder: bool) -> None:
     """Refuse an --out that cannot be written before any work is done."""
     import tempfile
@@ -115,6 +131,7 @@ def check_out(out: Path, *, folder: bool) -> None:
             )
         if out.is_dir():
             raise InputError(f"--out {out} is a folder; give a file such as {out / 'bench.csv'}")
+        check_table_suffix(out)
         parent = out.parent
     if not parent.is_dir():
         raise InputError(f"--out {out}: {parent} is not a folder")

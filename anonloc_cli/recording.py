@@ -2,14 +2,14 @@
 
 At every picture each robot's current estimate is handed to the env (``env.guesses``), so the
 frames show every robot's guess: a green ring around the robot when it is right, a red ring on the
-detection it chose (joined to it by a red line) when it is wrong; a legend says so.
-``render`` takes a frame every ``1 / fps`` seconds of simulated time and writes a GIF or MP4 played
-back in real time (or shows a window); ``frame`` writes the last frame as a PNG.
+detection it chose (joined to it by a red line) when it is wrong, an amber ring while it is
+undecided; a legend says so. ``render`` takes a frame every ``1 / fps`` seconds of simulated time
+and streams it to a GIF or MP4 played back in real time (or shows a window); ``frame`` writes the
+last frame as a PNG. Both refuse more ``--steps`` than the scenario's ``max_cycles``.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -45,6 +45,18 @@ def check_png(out: Path) -> None:
         raise InputError(f"--out must end in .png, got {str(out)!r}")
     if not out.parent.is_dir():
         raise InputError(f"--out {out}: {out.parent} is not a folder")
+
+
+def check_steps(steps: int, scenario: Scenario) -> None:
+    """Refuse more ``--steps`` than the scenario's episode lasts (``max_cycles``), before any
+    work: the episode would end there, and fewer steps be shown than asked for."""
+    cycles = scenario.config.max_cycles
+    if steps > cycles:
+        raise InputError(
+            f"--steps {steps} is more than scenario {scenario.name!r} lasts: its episodes end "
+            f"after max_cycles = {cycles} steps. Pass --steps {cycles} or less, or lengthen the "
+            f"episode: --set max_cycles={steps}"
+        )
 
 
 def check_pygame() -> None:
@@ -128,26 +140,26 @@ def main(
     fps: float,
     quiet: bool,
 ) -> int:
-    """Play ``steps`` control steps and write the frames to ``out`` (or show them)."""
-    frames: list[Any] = []
+    """Play ``steps`` control steps and write the frames to ``out`` as they are drawn (or show
+    them): memory holds one frame, however long the episode (:mod:`anonloc_cli.video`)."""
+    from anonloc_cli.video import open_video
+
     dt = scenario.config.dt
     stride = max(1, round(1.0 / (fps * dt)))
-    play(
-        scenario,
-        policy,
-        seed=seed,
-        steps=steps,
-        human=human,
-        stride=stride,
-        on_frame=frames.append,
-        quiet=quiet,
-    )
     if human:
+        play(scenario, policy, seed=seed, steps=steps, human=True, stride=stride,
+             on_frame=lambda _: None, quiet=quiet)  # fmt: skip
         return 0
     assert out is not None
-    _write(out, frames, fps=1.0 / (stride * dt))
-    seconds = len(frames) * stride * dt
-    echo(f"wrote {out}: {len(frames)} frames, {seconds:.1f} s of {scenario.name} with {policy}")
+    with store.atomic_path(out) as tmp:
+        video = open_video(tmp, fps=1.0 / (stride * dt))
+        try:
+            play(scenario, policy, seed=seed, steps=steps, human=False, stride=stride,
+                 on_frame=video.add, quiet=quiet)  # fmt: skip
+        finally:
+            video.close()
+    seconds = video.frames * stride * dt
+    echo(f"wrote {out}: {video.frames} frames, {seconds:.1f} s of {scenario.name} with {policy}")
     return 0
 
 
@@ -168,20 +180,9 @@ def frame(scenario: Scenario, policy: str, *, out: Path, seed: int, steps: int, 
     )
     with store.atomic_path(out) as tmp:
         iio.imwrite(tmp, frames[-1], extension=".png")
+    taken = "" if env.picture is None else f", the newest taken at t = {env.picture.time:.2f} s"
     echo(
-        f"wrote {out.resolve()}: {scenario.name} with {policy} after {env.steps} steps, "
-        f"{env.pictures_taken} pictures"
+        f"wrote {out.resolve()}: {scenario.name} with {policy} after {env.steps} steps "
+        f"(t = {env.steps * scenario.config.dt:.2f} s), {env.pictures_taken} pictures{taken}"
     )
     return 0
-
-
-def _write(out: Path, frames: list[Any], fps: float) -> None:
-    import imageio.v3 as iio
-
-    with store.atomic_path(out) as tmp:
-        if out.suffix.lower() == ".gif":
-            # Pillow's GIF writer takes the frame duration in ms (multiples of 10).
-            duration = max(20, 10 * math.ceil(100.0 / fps))
-            iio.imwrite(tmp, frames, extension=".gif", duration=duration, loop=0)
-        else:
-            iio.imwrite(tmp, frames, extension=".mp4", fps=fps)

@@ -83,9 +83,12 @@ def table(outcomes: dict[str, list[RunOutcome]]) -> tuple[list[str], list[list[s
     def ours(field: str) -> Any:
         return lambda m: str(summaries[m][field]) if summaries[m]["runs"] else "n/a"
 
+    def unit(m: str) -> str:  # the degree sign of the angular measures, as the README prints
+        return "°" if EXPERIMENTS[m].deviation_label.endswith("(deg)") else ""
+
     def deviation(m: str) -> str:
         mean, std = summaries[m]["deviation_mean"], summaries[m]["deviation_std"]
-        return "n/a" if not math.isfinite(mean) else f"{_num(mean)} ± {_num(std)}"
+        return "n/a" if not math.isfinite(mean) else f"{_num(mean)} ± {_num(std)}{unit(m)}"
 
     rows = [
         row(
@@ -100,7 +103,8 @@ def table(outcomes: dict[str, list[RunOutcome]]) -> tuple[list[str], list[list[s
         row("Second row: measures", lambda m: EXPERIMENTS[m].deviation_label),
         row("Second row, ours (mean ± std)", deviation),
         row(
-            "Second row, paper (mean ± std)", lambda m: "{} ± {}".format(*EXPERIMENTS[m].deviation)
+            "Second row, paper (mean ± std)",
+            lambda m: "{} ± {}".format(*EXPERIMENTS[m].deviation) + unit(m),
         ),
     ]
     return headers, rows

@@ -45,7 +45,10 @@ def check_sweeps(names: list[str]) -> list[sweeps.Sweep]:
     valid = list(sweeps.SWEEPS)
     unknown = [n for n in names if n not in valid]
     if unknown:
-        raise InputError(f"unknown sweep {unknown[0]!r}; valid: {valid}")
+        from anonloc_env._checks import did_you_mean
+
+        hint = did_you_mean(unknown[0], valid)
+        raise InputError(f"unknown sweep {unknown[0]!r}{hint}; valid: {valid}")
     return [sweeps.SWEEPS[n] for n in (names or valid)]
 
 

@@ -62,21 +62,65 @@ def markdown(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     )
 
 
-#: Widest a printed table gets (columns): it fits a terminal of that width, headers wrapping.
+#: Width (columns) of a table printed to a pipe or a file, unless its cells need more.
 WIDTH = 100
+
+#: Plain spellings of the signs the tables use, for a terminal that cannot show them.
+PLAIN = {"±": "+-", "°": " deg", "≥": ">=", "≤": "<=", "²": "^2", "\u00d7": "x", "\u2013": "-"}
+
+
+def plain(text: str, encoding: str) -> str:
+    """``text`` as ``encoding`` can show it: the signs of :data:`PLAIN` spelled out, anything
+    else it lacks as ``?``."""
+    try:
+        text.encode(encoding)
+        return text
+    except (UnicodeEncodeError, LookupError):
+        pass
+    for sign, spelled in PLAIN.items():
+        text = text.replace(sign, spelled)
+    return text.encode(encoding, errors="replace").decode(encoding, errors="replace")
+
+
+def column_widths(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> list[int]:
+    """The narrowest each column can be with no cell wrapped: its widest cell, or its header's
+    longest word (a header may wrap between words)."""
+    from rich.cells import cell_len
+
+    widths = [max((cell_len(w) for w in h.split()), default=0) for h in headers]
+    for row in rows:
+        widths = [max(w, cell_len(str(c))) for w, c in zip(widths, row, strict=True)]
+    return widths
 
 
 def show(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
-    """Print a table to the terminal with rich."""
+    """Print a table with rich: as a grid where it fits the terminal with no cell wrapped
+    (headers may wrap between words; to a pipe or a file: a grid as wide as it needs, at least
+    :data:`WIDTH`), else as one block of ``header: value`` lines per row, so that no cell is
+    wrapped or cut. Signs the output's encoding lacks are spelled out (``±`` as ``+-``, ``°``
+    as `` deg``)."""
     from rich.console import Console
     from rich.table import Table
 
     console = Console()
-    if not console.is_terminal or console.width > WIDTH:  # a pipe, a log file, a wide terminal
-        console = Console(width=WIDTH)
-    table = Table(title=title, title_justify="left")
-    for i, header in enumerate(headers):
-        table.add_column(header, justify="left" if i == 0 else "right", no_wrap=i == 0)
+    encoding = console.encoding
+    title, headers = plain(title, encoding), [plain(h, encoding) for h in headers]
+    rows = [[plain(str(c), encoding) for c in row] for row in rows]
+    widths = column_widths(headers, rows)
+    needed = sum(widths) + 3 * len(widths) + 1  # cells, padding and borders
+    if not console.is_terminal:  # a pipe, a log file: no width to fit
+        console = Console(width=max(WIDTH, needed))
+    if needed <= console.width:
+        table = Table(title=title, title_justify="left", safe_box=True)
+        for i, (header, width) in enumerate(zip(headers, widths, strict=True)):
+            table.add_column(header, justify="left" if i == 0 else "right", width=width)
+        for row in rows:
+            table.add_row(*row)
+        console.print(table)
+        return
+    console.print(title, highlight=False, soft_wrap=True)
     for row in rows:
-        table.add_row(*(str(c) for c in row))
-    console.print(table)
+        first = f"{headers[0]}: {row[0]}" if headers[0] else row[0]
+        console.print(f"- {first}", highlight=False, soft_wrap=True)
+        for header, cell in zip(headers[1:], row[1:], strict=True):
+            console.print(f"  {header}: {cell}", highlight=False, soft_wrap=True)

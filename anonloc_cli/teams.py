@@ -33,8 +33,14 @@ def excitation_names() -> list[str]:
 
 
 def check_policy(name: str) -> str:
-    """``name`` if it is a policy, else an :class:`InputError` listing the valid ones."""
-    return _check("policy", name, policy_names())
+    """``name`` if it is a policy, else an :class:`InputError` listing the valid ones. Where
+    plug-ins claim the name twice (or a built-in's), a note on stderr says which one is used."""
+    from baselines.catalog import plugin_notes
+
+    checked = _check("policy", name, policy_names())
+    for note in plugin_notes([name]):
+        echo(f"note: {note}", err=True)
+    return checked
 
 
 def check_excitation(name: str | None) -> str | None:
@@ -106,7 +112,7 @@ def check_team(
     lacks, a scenario it cannot run in) before any work."""
     try:
         build_team(policy, config, mode=mode, excitation_spec=excitation_spec, **kwargs)
-    except (TypeError, ValueError) as error:
+    except (TypeError, ValueError, ImportError) as error:  # ImportError: a plug-in's
         text = str(error).removeprefix("Error: ")  # SB3's own messages start with "Error: "
         raise InputError(f"policy {policy!r}: {text}") from error
 

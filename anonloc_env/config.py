@@ -17,8 +17,9 @@ never reaches the simulation.
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sized
 from dataclasses import dataclass, field
 
 from anonloc_env._checks import check_choice, check_number, check_pair
@@ -165,7 +166,8 @@ class CameraConfig:
             0: no gimbal, the camera tilts with the drone.
         landmarks: ground positions ``(x, y)`` (m, inside the arena) of fixed markers with
             distinct ids (ArUco ids 1, 2, ... of the robots' dictionary; the robots all wear id
-            0), at most 49. Every picture carries each landmark seen, with the same noise and
+            0), at most 49, at least ``robot.size`` apart. Every picture carries each landmark
+            seen, with the same noise and
             misses as a robot's detection: what a localizer needs to know the camera's pose.
     """
 
@@ -244,15 +246,17 @@ class CameraConfig:
                 "camera.landmarks must be a sequence of (x, y) ground positions in metres, e.g. "
                 f"((0.5, 0.5), (3.5, 0.5)), or () for none; got {self.landmarks!r}"
             )
-        points = tuple(
-            check_pair(f"camera.landmarks[{i}]", point, low=-MAX_LENGTH, high=MAX_LENGTH)
-            for i, point in enumerate(self.landmarks)
-        )
-        if len(points) > MAX_LANDMARKS:
+        given = list(itertools.islice(self.landmarks, MAX_LANDMARKS + 1))  # counted first
+        if len(given) > MAX_LANDMARKS:
+            count = len(self.landmarks) if isinstance(self.landmarks, Sized) else "more"
             raise ValueError(
                 f"camera.landmarks must hold at most {MAX_LANDMARKS} positions (ArUco ids 1 to "
-                f"{MAX_LANDMARKS}), got {len(points)}"
+                f"{MAX_LANDMARKS}), got {count}"
             )
+        points = tuple(
+            check_pair(f"camera.landmarks[{i}]", point, low=-MAX_LENGTH, high=MAX_LENGTH)
+            for i, point in enumerate(given)
+        )
         object.__setattr__(self, "landmarks", points)
 
     @property
@@ -360,6 +364,10 @@ class RewardConfig:
             check_number("reward.turn_cost", self.turn_cost, 0.0, MAX_WEIGHT)
 
 
+#: The most ``step()`` calls an episode may last (:attr:`EnvConfig.max_cycles`).
+MAX_CYCLES = 1_000_000
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """The whole task: arena, robots, camera, picture schedule, observation and reward.
@@ -373,7 +381,9 @@ class EnvConfig:
         dt: control step (s), in (0, 10]: a command is held this long; physics advances once per
             ``step()`` (sub-stepped internally so nothing tunnels, at most 1000 sub-steps: see
             :class:`RobotConfig`).
-        max_cycles: number of ``step()`` calls before every agent is truncated, in [1, inf).
+        max_cycles: number of ``step()`` calls before every agent is truncated, in
+            [1, 1000000] (:data:`MAX_CYCLES`: 50,000 s of simulated time at the default ``dt``;
+            a longer episode is a hang, not an experiment).
         robot: see :class:`RobotConfig`.
         camera: see :class:`CameraConfig`.
         schedule: see :class:`ScheduleConfig`.
@@ -398,7 +408,7 @@ class EnvConfig:
         object.__setattr__(self, "arena_size", arena)
         check_number("dt", self.dt, 0.0, 10.0, low_open=True)
         object.__setattr__(self, "dt", float(self.dt))
-        check_number("max_cycles", self.max_cycles, 1, integer=True)
+        check_number("max_cycles", self.max_cycles, 1, MAX_CYCLES, integer=True)
         object.__setattr__(self, "max_cycles", int(self.max_cycles))
         for name, cls in SECTIONS.items():
             if not isinstance(getattr(self, name), cls):
@@ -454,6 +464,15 @@ class EnvConfig:
                     f"camera.landmarks[{i}] must lie in the arena [0, {self.arena_size[0]:g}] x "
                     f"[0, {self.arena_size[1]:g}] m, got ({x:g}, {y:g})"
                 )
+            for j, (u, v) in enumerate(self.camera.landmarks[:i]):
+                if math.hypot(x - u, y - v) < self.robot.size:
+                    raise ValueError(
+                        f"camera.landmarks[{i}] ({x:g}, {y:g}) is within robot.size = "
+                        f"{self.robot.size:g} m of camera.landmarks[{j}] ({u:g}, {v:g}): "
+                        "landmarks are markers of a robot's size, so they would overlap, and "
+                        "landmarks at one place fix no camera pose (they made localizers decide "
+                        "wrongly)"
+                    )
         if self.observation.max_detections is not None and (
             self.observation.max_detections < self.n_robots
         ):

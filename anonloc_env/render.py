@@ -4,10 +4,12 @@ The arena is drawn in world coordinates (y up). Robots are drawn with their head
 picture's detections are mapped back to the ground through the camera and drawn as grey crosses.
 A robot's guess (``env.guesses``), when set, is drawn so that right and wrong differ at a glance: a
 right guess is a green ring around the robot; a wrong one is a red ring around the detection it
-chose, joined to the robot by a red line. A legend at the bottom says so. With the image source
-(``camera.source = "image"``) the camera's newest grayscale image is shown in the top-right corner
-(picture-in-picture). A camera that moves (``camera.drift`` and the wobbles) has its footprint, the
-ground its field of view covered at the newest picture, drawn as a blue outline.
+chose, joined to the robot by a red line; a robot whose guess is ``None`` (not decided yet) gets a
+thin amber ring. A legend at the bottom says so, and the header gives the time the newest picture
+was taken (the crosses are where the robots were then, not where they are now). With the image
+source (``camera.source = "image"``) the camera's newest grayscale image is shown in the top-right
+corner (picture-in-picture). A camera that moves (``camera.drift`` and the wobbles) has its
+footprint, the ground its field of view covered at the newest picture, drawn as a blue outline.
 
 Only the ``human`` mode opens a display; ``rgb_array`` draws off screen and never initialises SDL's
 video (so no display, and no message about one, is needed).
@@ -33,6 +35,7 @@ _FOOTER = 26  # pixels below the arena (the legend)
 _INSET = 0.3  # side of the picture-in-picture, as a fraction of the window's width
 _RIGHT = (30, 160, 60)  # a right guess
 _WRONG = (210, 40, 40)  # a wrong guess
+_UNDECIDED = (230, 150, 0)  # no guess yet (amber)
 _DETECTION = (90, 90, 90)
 _FOOTPRINT = (60, 110, 220)  # the moving camera's field of view on the ground
 _TEXT = (20, 20, 20)
@@ -142,7 +145,9 @@ class Renderer:
             for x, y in screen:
                 self._cross(x, y)
             self._draw_guesses(poses, picture, screen, guesses, agents)
-        label = f"t = {time:7.2f} s   pictures: {0 if picture is None else picture.index + 1}"
+        label = f"t = {time:.2f} s   pictures: {0 if picture is None else picture.index + 1}"
+        if picture is not None:
+            label += f" (crosses: the newest, taken at t = {picture.time:.2f} s)"
         surface.blit(self.font.render(label, True, _TEXT), (_MARGIN, 4))
         self._draw_legend()
         if image is not None:
@@ -197,15 +202,18 @@ class Renderer:
         pg, surface = self.pygame, self.surface
         y = self.size[1] - _FOOTER / 2
         x = float(_MARGIN)
+        rings = {"right": (_RIGHT, 3), "wrong": (_WRONG, 3), "undecided": (_UNDECIDED, 2)}
         for kind, text in (
             ("cross", "detection"),
             ("right", "guess right"),
-            ("wrong", "guess wrong (ring on the detection it chose)"),
+            ("wrong", "wrong (ring on the row it chose)"),
+            ("undecided", "undecided"),
         ):
             if kind == "cross":
                 self._cross(x + 6, y)
             else:
-                pg.draw.circle(surface, _RIGHT if kind == "right" else _WRONG, (x + 6, y), 7, 3)
+                color, width = rings[kind]
+                pg.draw.circle(surface, color, (x + 6, y), 7, width)
             label = self.font.render(text, True, _TEXT)
             surface.blit(label, (x + 18, y - label.get_height() / 2))
             x += 18 + label.get_width() + 16
@@ -235,6 +243,9 @@ class Renderer:
         radius = self._ring_radius()
         for i, agent in enumerate(agents):
             row = guesses.get(agent)
+            if row is None and agent in guesses:  # told, and not decided yet
+                pg.draw.circle(surface, _UNDECIDED, tuple(centres[i]), radius, 2)
+                continue
             if row is None or not 0 <= row < len(screen):
                 continue
             if row == picture.true_index[i]:

@@ -8,7 +8,8 @@
 Every policy is built for the scenario it runs in (``env``, or ``config=`` an ``EnvConfig`` or a
 preset name): the localizers' sensor model comes from it. Without one, ``make`` raises.
 
-Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown) and ``bayes``, and those
+Names: ``angular``, ``linear``, ``motion``, ``motion3`` (scale unknown), ``bayes`` and ``mlp``
+(learned, :mod:`baselines.mlp`), and those
 other packages register (``agent``, from ``agents``): :mod:`baselines.registry`. See
 :mod:`baselines.localizers` for the maths and :mod:`baselines.excitations` for the motions.
 """
@@ -18,11 +19,15 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
+from baselines._distribution import check as _check_distribution
 from baselines.catalog import policy_names, register_policy
 
 if TYPE_CHECKING:
     from baselines.policies import BaselinePolicy, Policy, Team
     from baselines.registry import POLICIES, make, make_team, scenario_config
+
+# OpenAI's `baselines` on the package index has this top-level name too (docs/design.md).
+_check_distribution("baselines")
 
 #: The package face, imported on first use (``import baselines`` stays cheap: listing the names
 #: needs only :mod:`baselines.catalog`).

@@ -10,11 +10,19 @@ Other packages add policies without ``baselines`` importing them: under the entr
 registers ``agent`` so), or at run time with :func:`register_policy`. A factory is called as
 ``factory(config, n, mode, excitation, **kwargs)`` and returns a
 :class:`~baselines.policies.Team`; it is imported only when its name is built.
+
+Which one wins when a name is claimed twice (:func:`plugin_notes` says it, and the command line
+prints it): a built-in name always means the built-in policy (an entry point with that name is
+ignored); :func:`register_policy` comes before an entry point; of two entry points with one name,
+anonloc's own (``agent``) wins, else the one whose package's name sorts first
+(case-insensitively). A plug-in that fails to
+import, whatever it raises, is a :class:`PluginError` naming the plug-in, its entry point and the
+error.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from importlib import import_module, metadata
 from typing import TYPE_CHECKING, Any
@@ -49,6 +57,7 @@ BUILT_IN_POLICIES: dict[str, Entry] = {
     "motion": Entry("baselines.localizers:MotionLocalizer", "random"),
     "motion3": Entry("baselines.localizers:Motion3Localizer", "random"),
     "bayes": Entry("baselines.localizers:BayesLocalizer", "random"),
+    "mlp": Entry("baselines.mlp:MLPLocalizer", "random"),
 }
 
 BUILT_IN_EXCITATIONS: dict[str, Entry] = {
@@ -94,8 +103,57 @@ def register_policy(name: str, factory: PolicyFactory) -> None:
     _registered[name] = factory
 
 
+class PluginError(ImportError):
+    """A registered policy's module could not be imported (or raised while importing)."""
+
+
+def _origin(entry: metadata.EntryPoint) -> str:
+    dist = getattr(entry, "dist", None)
+    return f"{entry.name} = {entry.value!r} (from {dist.name if dist else 'an unknown package'})"
+
+
+def _precedence(entry: metadata.EntryPoint) -> tuple[bool, str, str]:
+    """Sort key of the claims on one name: anonloc's own first, then by package name."""
+    dist = str(getattr(getattr(entry, "dist", None), "name", "")).lower()
+    return (dist != "anonloc", dist, entry.value)
+
+
+def _claims() -> dict[str, list[metadata.EntryPoint]]:
+    """Every entry point of :data:`ENTRY_POINTS` by name, the winner first (see the module doc)."""
+    claims: dict[str, list[metadata.EntryPoint]] = {}
+    for entry in metadata.entry_points(group=ENTRY_POINTS):
+        claims.setdefault(entry.name, []).append(entry)
+    for entries in claims.values():
+        entries.sort(key=_precedence)
+    return claims
+
+
 def _entry_points() -> dict[str, metadata.EntryPoint]:
-    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINTS)}
+    return {name: entries[0] for name, entries in _claims().items()}
+
+
+def plugin_notes(names: Collection[str] | None = None) -> list[str]:
+    """One line per policy name that is claimed twice (of ``names``, default all): which claim
+    wins and which are ignored (see the module doc)."""
+    notes = []
+    for name, entries in _claims().items():
+        if names is not None and name not in names:
+            continue
+        ignored = ", ".join(_origin(e) for e in entries)
+        if name in BUILT_IN_POLICIES:
+            notes.append(f"policy {name!r} is built in; the plug-in {ignored} is ignored")
+        elif name in _registered:
+            notes.append(
+                f"policy {name!r} was registered at run time; the plug-in {ignored} is ignored"
+            )
+        elif len(entries) > 1:
+            others = ", ".join(_origin(e) for e in entries[1:])
+            notes.append(
+                f"policy {name!r} is claimed by {len(entries)} plug-ins: {_origin(entries[0])} "
+                f"is used (anonloc's own, else the package whose name sorts first); ignored: "
+                f"{others}"
+            )
+    return notes
 
 
 def policy_names() -> list[str]:
@@ -118,16 +176,18 @@ def registered_factory(name: str) -> PolicyFactory:
 
     Raises:
         KeyError: ``name`` is not registered.
-        ImportError: the entry point's module could not be imported (the message says which).
+        PluginError: the entry point's module could not be imported, or raised while being
+            imported (the message names the plug-in, its entry point and the error).
     """
     if name in _registered:
         return _registered[name]
     entry = _entry_points()[name]
     try:
         factory: PolicyFactory = entry.load()
-    except ImportError as error:
-        raise ImportError(
-            f"policy {name!r} comes from {entry.value!r}, which could not be imported ({error}); "
-            "for 'agent': pip install 'anonloc[rl]'"
+    except Exception as error:  # a plug-in may raise anything at import
+        hint = "; for 'agent': pip install 'anonloc[rl]'" if isinstance(error, ImportError) else ""
+        raise PluginError(
+            f"policy plug-in {_origin(entry)} failed to import: {type(error).__name__}: "
+            f"{error}{hint}"
         ) from error
     return factory

@@ -11,6 +11,7 @@ is also scored at the 4th picture.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,7 +19,7 @@ import numpy as np
 
 import anonloc_env
 from anonloc_env.geometry import wrap_angle
-from baselines.localizers import BayesLocalizer
+from baselines.localizers import BayesLocalizer, Localizer
 from baselines.paper_noise import SCALE_USED, xy_disagreement
 from baselines.registry import POLICIES, make_team
 from baselines.runner import EpisodeResult, run_episode
@@ -85,10 +86,22 @@ class RunOutcome:
     deviation: tuple[float, ...]
 
 
-def run(method: str, seed: int, overrides: dict[str, Any] | None = None) -> RunOutcome:
-    """One run of experiment ``method`` with episode seed ``seed``; ``overrides`` (keyword
-    overrides of ``anonloc_env.make_config``, e.g. ``{"camera": {"source": "image"}}``)
-    change the preset."""
+def play(
+    method: str,
+    seed: int,
+    overrides: dict[str, Any] | None = None,
+    listeners: Mapping[str, Localizer] | None = None,
+) -> EpisodeResult:
+    """One run of experiment ``method`` with episode seed ``seed``, as played: the corrected
+    version drives (with the method's own excitation), the faithful version (``"faithful"``) and
+    the Bayesian identifier (``"bayes"``) listen, and so do ``listeners`` (more localizers, by
+    name, for the experiment's config and robots: e.g. ``{"mlp": MLPLocalizer(config, 2)}``).
+    ``overrides`` (keyword overrides of ``anonloc_env.make_config``, e.g.
+    ``{"camera": {"source": "image"}}``) change the preset.
+
+    Raises:
+        ValueError: an unknown experiment.
+    """
     if method not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {method!r}; valid: {list(EXPERIMENTS)}")
     # The env's reward is not used here: the cheap one spares it the referee identifier.
@@ -102,9 +115,16 @@ def run(method: str, seed: int, overrides: dict[str, Any] | None = None) -> RunO
     team.listeners = {
         "faithful": localizer_class(config, n, "faithful"),
         "bayes": BayesLocalizer(config, n),
+        **(listeners or {}),
     }
     team.reset([None] * n)
-    result = run_episode(env, team, seed, max_pictures=BAYES_PICTURE + 1)
+    return run_episode(env, team, seed, max_pictures=BAYES_PICTURE + 1)
+
+
+def run(method: str, seed: int, overrides: dict[str, Any] | None = None) -> RunOutcome:
+    """One run of experiment ``method`` with episode seed ``seed`` (:func:`play`), scored."""
+    result = play(method, seed, overrides)
+    n = result.n_robots
     first = {name: result.decisions(name) for name in ("", "faithful", "bayes")}
     at_4th = [
         r.correct for r in result.records if r.localizer == "bayes" and r.picture == BAYES_PICTURE

@@ -97,6 +97,11 @@ class Team:
         :meth:`~baselines.excitations.Excitation.on_picture` (told what the team's localizer
         now believes, a :class:`~baselines.steps.BeliefView`).
         """
+        if len(observations) != self.n:
+            raise ValueError(
+                f"a team of {self.n} robots was given {len(observations)} observations: build "
+                "it for the env it runs in (baselines.make_team(name, env))"
+            )
         return self.take(read_step(observations))
 
     def take(self, step: Step) -> Step:

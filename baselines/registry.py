@@ -155,7 +155,9 @@ def make_team(
             :class:`~baselines.localizers.BayesLocalizer`); ``agent`` also takes ``path``, a
             saved agent (default: the agent bundled with the package; a file is unpickled by
             SB3: load only files you trust), and ``condition``, ``"free"`` or ``"swarm"``
-            (default: the one the agent's run recorded, else ``free``).
+            (default: the one the agent's run recorded, else ``free``). ``mlp`` takes
+            ``threshold`` and ``weights``, a weights file (default: the ones shipped,
+            ``baselines/data/mlp.npz``).
 
     Raises:
         ValueError: an unknown name, mode or excitation, or no scenario given (neither ``env``

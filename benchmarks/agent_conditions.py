@@ -1,4 +1,4 @@
-"""The eight evaluation conditions of the learned agents (issue 17), defined once.
+"""The evaluation conditions of the learned agents (issues 17 and 24), defined once.
 
 Every condition is :func:`benchmarks.excitations.scenario`'s: N robots, one per square metre
 (arena side sqrt(N) m), the default camera (100 image units per metre) with 1 px of pixel noise
@@ -38,7 +38,7 @@ def evaluation_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str,
     if not (isinstance(pictures, int) and pictures >= 1):
         raise ValueError(f"pictures must be an integer >= 1, got {pictures!r}")
     out: dict[str, tuple[EnvConfig, str, float]] = {}
-    for n in (10, 100, 1000):
+    for n in (10, 30, 100, 300, 1000):
         out[f"free N={n}"] = (scenario(n, pictures), "free", SWARM_BUDGET)
     for n in (10, 100):
         out[f"swarm N={n}"] = (scenario(n, pictures), "swarm", SWARM_BUDGET)

@@ -1,6 +1,7 @@
-"""The learned agent against ``uniform``, random, ``distinct`` and ``greedy`` on the conditions.
+"""The learned agent against ``uniform``, random, ``distinct``, ``greedy`` and the centralized code.
 
-Every robot runs the ``bayes`` identifier (decisions at belief 0.99) and one excitation; the
+Every robot runs the ``bayes`` identifier (decisions at belief 0.99) and one excitation (``code``
+is :class:`baselines.excitations.code.CentralizedCode`, a reference that knows identities); the
 evaluation seeds (from ``--first-seed``, default 100000) are never used in training (a training
 run seeds its env copies with 64-bit draws of ``SeedSequence(seed)`` and draws its scenarios
 from their own generator). For each condition and excitation it reports, over all episodes:
@@ -13,12 +14,15 @@ from their own generator). For each condition and excitation it reports, over al
 * energy to 99 %: mean wheel travel per robot until that picture (censored the same way), m;
 * confident decisions wrong: decisions (belief >= 0.99) on a row that is not the robot's, over
   all decisions of all robots at all pictures;
-* the limits of :mod:`baselines.limit` for the condition.
+* the limits of :mod:`baselines.limit` for the condition;
+* at the end, agent / ``uniform`` for pictures and energy, paired on the same seeds, with 95 %
+  bootstrap intervals (:func:`paired_ratio`).
 
 Usage::
 
     python -m benchmarks.agent_eval --agent bundled --json results/agents.json
     python -m benchmarks.agent_eval --agent runs/x/agent.zip --conditions "free N=10" --episodes 40
+    python -m benchmarks.agent_eval --report results/a.json results/b.json  # the ratios only
 
 (run from the repository's root). The conditions are
 :func:`benchmarks.agent_conditions.evaluation_conditions` (one robot per square metre,
@@ -30,25 +34,32 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
+from baselines.excitations.code import CentralizedCode
 from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
-from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median
+from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
 from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
+#: The centralized reference (``baselines.excitations.code.CentralizedCode``: knows identities).
+REFERENCE = "code"
 #: Episodes per condition by default (fewer where N is large).
-EPISODES = {10: 40, 20: 40, 50: 30, 100: 20, 1000: 5}
+EPISODES = {10: 40, 20: 40, 30: 30, 50: 30, 100: 20, 300: 8, 1000: 5}
 
 
-def score(results: list[EpisodeResult], pictures: int) -> dict[str, float]:
-    """The module's figures over ``results`` (censored at ``pictures``)."""
+def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
+    """The module's figures over ``results`` (censored at ``pictures``), with the per-episode
+    ``firsts`` and ``energies`` (for paired comparisons on the same seeds)."""
     firsts, energies = zip(*(censored(r, pictures) for r in results), strict=True)
     decided = sum(rec.estimate >= 0 for r in results for rec in r.records)
     wrong = sum(rec.estimate >= 0 and not rec.correct for r in results for rec in r.records)
@@ -70,10 +81,38 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, float]:
         "energy_high": spent.high,
         "wrong": wrong / max(decided, 1),
         "decisions": decided,
+        "firsts": [float(f) for f in firsts],
+        "energies": [float(e) for e in energies],
     }
 
 
-def median_text(row: dict[str, float]) -> str:
+def paired_ratio(a: Sequence[float], b: Sequence[float], resamples: int = 10_000) -> Interval95:
+    """``mean(a) / mean(b)`` over episodes played on the same seeds, with a 95 % bootstrap
+    interval that resamples the episodes jointly (seeded)."""
+    x, y = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if x.shape != y.shape or not len(x):
+        raise ValueError(f"paired samples must have one equal length > 0, got {x.shape, y.shape}")
+    pick = np.random.default_rng(0).integers(0, len(x), size=(resamples, len(x)))
+    ratios = x[pick].mean(axis=1) / np.maximum(y[pick].mean(axis=1), 1e-12)
+    low, high = np.quantile(ratios, [0.025, 0.975])
+    return Interval95(float(x.mean() / max(y.mean(), 1e-12)), float(low), float(high))
+
+
+def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Excitation]]:
+    """How to build each named excitation (the agent's model is loaded once)."""
+    out: dict[str, Callable[[], Excitation]] = {
+        k: EXCITATIONS[k] for k in excitations if k in EXCITATIONS
+    }
+    out[REFERENCE] = CentralizedCode
+    if "agent" in excitations:
+        from agents.policy import LearnedExcitation, load_model
+
+        model = load_model(agent)
+        out["agent"] = lambda: LearnedExcitation(model)
+    return out
+
+
+def median_text(row: dict[str, Any]) -> str:
     """A row's Kaplan-Meier median and interval, as the tables print them."""
     median = SurvivalMedian(
         row["median"], row["median_low"], row["median_high"], int(row["episodes"]), 0
@@ -85,17 +124,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="bundled", help="a saved agent, or 'bundled'")
     parser.add_argument("--conditions", nargs="+", default=None, help="default: all")
-    parser.add_argument("--excitations", nargs="+", default=["agent", *BASELINES])
+    parser.add_argument("--excitations", nargs="+", default=["agent", *BASELINES, REFERENCE])
     parser.add_argument("--episodes", type=int, default=None, help="default: by N (EPISODES)")
     parser.add_argument("--pictures", type=int, default=30, help="pictures per episode")
     parser.add_argument("--first-seed", type=int, default=100_000)
     parser.add_argument("--json", type=Path, default=None, help="write the rows here")
+    parser.add_argument("--scale", type=float, default=1.0, help="times the default episodes")
+    parser.add_argument("--report", type=Path, nargs="+", default=None, help="rows to compare")
     args = parser.parse_args()
-    from agents.policy import LearnedExcitation, load_model
-
-    model = load_model(args.agent) if "agent" in args.excitations else None
-    makers: dict[str, Callable[[], Excitation]] = {k: EXCITATIONS[k] for k in BASELINES}
-    makers["agent"] = lambda: LearnedExcitation(model)
+    if args.report:
+        print_ratios([row for path in args.report for row in json.loads(path.read_text())])
+        return
+    built = makers(args.agent, args.excitations)
     conditions = evaluation_conditions()
     names = args.conditions or list(conditions)
     conditions |= crowded_conditions()  # run when named
@@ -107,11 +147,11 @@ def main() -> None:
     for name in names:
         config, condition, budget = conditions[name]
         limit = picture_limit(config, condition, budget)
-        episodes = args.episodes or EPISODES.get(config.n_robots, 20)
+        episodes = args.episodes or max(2, round(args.scale * EPISODES.get(config.n_robots, 20)))
         seeds = range(args.first_seed, args.first_seed + episodes)
         for excitation in args.excitations:
             start = time.perf_counter()
-            results = play(config, condition, budget, makers[excitation], seeds, args.pictures)
+            results = play(config, condition, budget, built[excitation], seeds, args.pictures)
             row = {
                 "condition": name,
                 "excitation": excitation,
@@ -133,6 +173,21 @@ def main() -> None:
                 tmp = args.json.with_suffix(".tmp")
                 tmp.write_text(json.dumps(rows, indent=1))
                 tmp.replace(args.json)
+    print_ratios(rows)
+
+
+def print_ratios(rows: Sequence[dict[str, Any]], base: str = "uniform") -> None:
+    """Agent / ``base`` per condition, pictures and energy, paired on the same seeds."""
+    found = {(r["condition"], r["excitation"]): r for r in rows}
+    print(f"\n| condition | agent / {base}, pictures [95 %] | energy [95 %] |\n|---|---|---|")
+    for (condition, excitation), row in found.items():
+        other = found.get((condition, base))
+        if excitation != "agent" or other is None:
+            continue
+        n = min(len(row["firsts"]), len(other["firsts"]))  # the seeds both played
+        pictures = paired_ratio(row["firsts"][:n], other["firsts"][:n])
+        energy = paired_ratio(row["energies"][:n], other["energies"][:n])
+        print(f"| {condition} | {pictures} | {energy} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -85,3 +85,48 @@ def start_script(*args: Any, **kwargs: Any) -> subprocess.Popen[str]:
         cwd=kwargs.pop("cwd", ROOT),
         **kwargs,
     )
+
+
+def run_in_terminal(
+    *args: Any, columns: int = 80, timeout: float = 180, env: dict[str, str] | None = None
+) -> tuple[int, str]:
+    """Run ``anonloc ARGS`` with stdout and stderr on a pseudo-terminal ``columns`` wide (as in
+    a user's terminal window); returns the exit status and everything it wrote (``\\r\\n``
+    line ends, as a terminal receives them)."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    import threading
+
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 50, columns, 0, 0))
+    environment = {**script_env(), "COLUMNS": str(columns), **(env or {})}
+    chunks: list[bytes] = []
+
+    def drain() -> None:
+        while True:
+            try:
+                data = os.read(leader, 65536)
+            except OSError:  # the terminal closed
+                return
+            if not data:
+                return
+            chunks.append(data)
+
+    reader = threading.Thread(target=drain, daemon=True)
+    reader.start()
+    process = subprocess.Popen(
+        [str(SCRIPT), *map(str, args)],
+        stdin=subprocess.DEVNULL, stdout=follower, stderr=follower, env=environment, cwd=ROOT,
+    )  # fmt: skip
+    os.close(follower)
+    try:
+        code = process.wait(timeout=timeout)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        reader.join(timeout=10)
+        os.close(leader)
+    return code, b"".join(chunks).decode("utf-8", errors="replace")

@@ -18,13 +18,13 @@ import baselines
 from agents.candidate_features import (
     CANDIDATE_FEATURES,
     CANDIDATES,
+    CONTEXT_COLUMN,
     CONTEXT_FEATURES,
-    policy_action_space,
-    policy_observation_space,
 )
 from agents.candidates import CandidateChooser
 from agents.features import CandidatePolicy, CandidateScorer
 from agents.policy import LearnedExcitation, draw, load_model
+from agents.spec import AgentSpec
 from agents.vec import AnonLocVecEnv
 from baselines.active import GreedyIdentification
 from baselines.excitations import SwarmDuty
@@ -90,14 +90,15 @@ def test_every_robot_is_a_slot_with_the_documented_observation() -> None:
     assert obs["candidates"].shape == (6, CANDIDATES, CANDIDATE_FEATURES)
     assert obs["context"].shape == (6, CONTEXT_FEATURES)
     assert all(o.dtype == np.float32 for o in obs.values())
-    assert venv.observation_space == policy_observation_space()
-    assert venv.action_space == policy_action_space()
+    assert venv.observation_space == AgentSpec().observation_space()
+    assert venv.action_space == AgentSpec().action_space()
     assert venv.observation_space.contains({k: v[0] for k, v in obs.items()})
     # At the first picture every robot is equally likely to be each of the 3 rows.
     context = obs["context"]
-    np.testing.assert_allclose(context[:, 0], np.log(3.0), rtol=1e-6)  # entropy (nats)
-    np.testing.assert_allclose(context[:, 1], 1.0 / 3.0, rtol=1e-6)  # largest belief
-    np.testing.assert_array_equal(context[:, -1], 1.0)  # scored
+    col = CONTEXT_COLUMN
+    np.testing.assert_allclose(context[:, col["entropy_now"]], np.log(3.0), rtol=1e-6)  # nats
+    np.testing.assert_allclose(context[:, col["largest_belief"]], 1.0 / 3.0, rtol=1e-6)
+    np.testing.assert_array_equal(context[:, col["scored"]], 1.0)
     cand = obs["candidates"]
     assert (np.abs(cand[..., :2]) <= 1.0).all()  # commands within the robot's limits
     # The best candidate's gap to the best is 0; information = entropy now - expected entropy.
@@ -266,8 +267,8 @@ def test_swarm_duty_tells_the_chooser_it_deviates_from_the_first_picture() -> No
     team.reset(np.random.SeedSequence(1).spawn(3))
     team.act([observations[a] for a in env.possible_agents])
     context = chooser.observation["context"]
-    np.testing.assert_array_equal(context[:, 6], 1.0)  # on duty
-    np.testing.assert_allclose(context[:, 7], 0.3)  # its budget
+    np.testing.assert_array_equal(context[:, CONTEXT_COLUMN["on_duty"]], 1.0)
+    np.testing.assert_allclose(context[:, CONTEXT_COLUMN["budget"]], 0.3)
     assert (chooser.observation["candidates"][..., 0] < 0).any()  # deviations go backwards too
 
 

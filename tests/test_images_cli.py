@@ -96,7 +96,7 @@ def test_detect_refuses_bad_input(tmp_path: Path) -> None:
     assert "holds no image files" in result.output
     result = invoke("detect", empty, "--camera", camera, "--out", tmp_path / "d.txt")
     assert result.exit_code == 2
-    assert "--out must end in one of ['.csv', '.parquet']" in result.output
+    assert "tables are written as .csv (CSV) or .parquet (Parquet)" in result.output
     cv2.imwrite(str(empty / "small.png"), np.zeros((10, 20), np.uint8))
     result = invoke("detect", empty, "--camera", camera, "--out", tmp_path / "d.csv")
     assert result.exit_code == 2

@@ -13,11 +13,13 @@ from benchmarks.agent_conditions import evaluation_conditions
 from benchmarks.plot_agents import check_rows, limits, plot
 
 
-def test_the_eight_conditions() -> None:
+def test_the_ten_conditions() -> None:
     conditions = evaluation_conditions()
     assert list(conditions) == [
         "free N=10",
+        "free N=30",
         "free N=100",
+        "free N=300",
         "free N=1000",
         "swarm N=10",
         "swarm N=100",

@@ -246,7 +246,11 @@ class Registration:
                 break
             shift = weight @ offset / total
             width = max(0.7 * width, float(np.median(sigma[j])))
-        return shift
+        # Never further than the camera's change may plausibly take it: a mode one robot
+        # spacing away is another robot's, not the camera's.
+        limit = 3.0 * self.prior.change[2]
+        length = float(np.hypot(*shift))
+        return shift * (limit / length) if length > limit else shift
 
     def _match(self, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Mutual nearest pairs ``(row, previous row, spread)`` between the rows ``moved`` (through

@@ -1,6 +1,7 @@
 """The candidate commands that ``greedy``, ``uniform`` and the learned agent choose among: their
 box (:class:`GreedySettings`, named for the excitation that introduced it), their draw
-(:func:`candidate_commands`) and a fair pick among them (:func:`coin`)."""
+(:func:`candidate_commands`), a fair pick among them (:func:`coin`), and the base of the
+excitations that hold one command in that box per picture (:class:`HeldCommand`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from baselines.excitations.distinct import DistinctSettings, check_command_box
+from baselines.excitations.base import Excitation
+from baselines.excitations.distinct import BackOff, DistinctSettings, check_command_box
+from baselines.steps import Step
 
 
 @dataclass
@@ -90,3 +93,33 @@ def coin(rngs: Sequence[np.random.Generator], sides: int) -> np.ndarray:
     generator (the same number, and the same pick, as ``agents.policy.draw`` of zero logits)."""
     u = np.fromiter((rng.random() for rng in rngs), np.float64, len(rngs))
     return np.minimum((u * sides).astype(np.int64), sides - 1)
+
+
+class HeldCommand(Excitation):
+    """Base of the excitations that set one command per robot at every picture
+    (``on_picture`` sets ``self.v``, ``self.w``), hold it until the next, and reverse out of
+    bumps (a :class:`~baselines.excitations.BackOff`); on swarm duty ``self.following`` is
+    true from the reset on.
+
+    Args:
+        settings: the box of the commands and the back-off (``GreedySettings()`` by default).
+    """
+
+    def __init__(self, settings: GreedySettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or GreedySettings()
+        self.backoff = BackOff(self.settings.back)
+        self.following = False
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.v = np.zeros(self.n)
+        self.w = np.zeros(self.n)
+        self.following = False
+        self.backoff.reset(rngs)
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        self.following = True
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.backoff.commands(step, dt, lambda hit: (self.v, self.w))

@@ -15,42 +15,21 @@ candidate (as the agent does). No torch, no belief read beyond "is there a row".
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
-from baselines.excitations.base import Excitation
-from baselines.excitations.candidates import GreedySettings, candidate_commands, coin
-from baselines.excitations.distinct import BackOff
+from baselines.excitations.candidates import HeldCommand, candidate_commands, coin
 from baselines.steps import BeliefView, Step
 
 
-class UniformChoice(Excitation):
+class UniformChoice(HeldCommand):
     """At every picture, one command drawn uniformly among the agent's candidates, held until the
     next picture, reversing out of bumps (see the module documentation).
 
     Args:
         settings: the candidates' number and box and the back-off (the agent's, by default:
-            ``GreedySettings()``); only ``candidates``, ``speed``, ``turn`` and
-            ``back`` are read.
+            ``GreedySettings()``); only ``candidates``, ``speed``, ``turn`` and ``back`` are
+            read.
     """
-
-    def __init__(self, settings: GreedySettings | None = None) -> None:
-        super().__init__()
-        settings = settings or GreedySettings()
-        self.settings = settings
-        self.backoff = BackOff(settings.back)
-        self.following = False
-
-    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
-        super().reset(rngs)
-        self.v = np.zeros(self.n)
-        self.w = np.zeros(self.n)
-        self.following = False
-        self.backoff.reset(rngs)
-
-    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
-        self.following = True
 
     def on_picture(self, step: Step, view: BeliefView) -> None:
         s = self.settings
@@ -61,6 +40,3 @@ class UniformChoice(Excitation):
             pick = coin(self.rngs, s.candidates)
         robots = np.arange(self.n)
         self.v, self.w = cand[robots, pick, 0], cand[robots, pick, 1]
-
-    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        return self.backoff.commands(step, dt, lambda hit: (self.v, self.w))

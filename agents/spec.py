@@ -1,0 +1,247 @@
+"""One definition of the learned agent: :class:`AgentSpec`, built once and read by everything
+that trains, runs or loads it.
+
+An agent is defined by what it sees (its features, by name and meaning, and how many candidate
+commands it chooses among), what it is rewarded for (:class:`Reward`, an object, not a string)
+and where it acts (the condition, and the swarm budget). :class:`agents.crew.Crew`, the SB3
+``VecEnv`` (:class:`agents.vec.AnonLocVecEnv`), the PettingZoo env
+(:class:`agents.pettingzoo.BeliefParallelEnv`), RLlib (:func:`agents.rllib.make_ppo_config`) and
+``anonloc train`` (through :meth:`agents.train.TrainConfig.spec`) take the spec, never its parts
+one by one.
+
+The spec is saved inside the agent's zip (SB3's ``policy_kwargs``, plain JSON) and read back
+before anything in the file is unpickled (:func:`saved_spec`): an agent whose features differ
+from this anonloc's by name, meaning, number or order, or whose candidate count or layout differs,
+is refused with a message that lists what differs (:func:`check_saved`). The condition and the
+budget it recorded are the ones it runs in by default. A zip saved before specs existed (layout
+2, without one) is read as this module's layout-2 spec with the candidate count of its action
+space and the condition of its run folder.
+
+>>> spec = AgentSpec(condition="swarm", budget=0.3, reward=Reward("team"))
+>>> AgentSpec.from_json(spec.to_json()) == spec
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from agents.candidate_features import (
+    CANDIDATE_SPEC,
+    CANDIDATES,
+    CONTEXT_SPEC,
+    LAYOUT,
+    Feature,
+    information,
+)
+from anonloc_env._checks import check_choice, check_number
+from baselines.excitations import Excitation, SwarmDuty
+
+#: Where the agent acts: ``free`` (the chosen candidate is the command), ``swarm`` (a bounded
+#: deviation from a shared command stream) or ``mixed`` (training across drawn scenarios; a
+#: ``mixed`` agent runs ``free`` unless told otherwise).
+CONDITIONS = ("free", "swarm", "mixed")
+#: The identity terms of :class:`Reward`.
+IDENTITY_TERMS = ("log_belief", "information", "team")
+#: The identity term of the ``log_belief`` and ``team`` rewards is floored here (nats: log 1e-3 =
+#: -6.9), so that one robot's bad picture cannot dominate a batch.
+LOG_BELIEF_FLOOR = 1e-3
+
+
+def on_duty(condition: str, own: Excitation, budget: float, common_seed: int = 0) -> Excitation:
+    """The excitation of a condition: ``own`` itself (``free``, ``mixed``), or ``own`` as the
+    bounded deviation from a shared command stream seeded by ``common_seed`` (``swarm``, see
+    ``baselines.excitations.SwarmDuty``). The one place the free/swarm switch is written."""
+    check_choice("condition", condition, CONDITIONS)
+    if condition == "swarm":
+        return SwarmDuty(own, budget=budget, common_seed=common_seed)
+    return own
+
+
+@dataclass(frozen=True)
+class Reward:
+    """What a robot is rewarded for, at each picture, besides the env's energy term.
+
+    Attributes:
+        identity: ``log_belief``: the log of the belief the robot gives its true row (floored at
+            :data:`LOG_BELIEF_FLOOR`), so that every picture spent unsure costs what is still
+            unknown; ``information``: the nats gained since the previous picture (it telescopes,
+            so only the discount rewards being quick); ``team``: the mean over the env's robots
+            of their ``log_belief`` terms, the same for every robot (a robot's motion also
+            decides how well the others are told apart).
+        information_weight: weight of the identity term (per nat), >= 0.
+        energy_weight: reward lost per metre of wheel travel (the env's ``EnergyCost``); None
+            keeps the scenario's ``reward.energy_weight``.
+    """
+
+    identity: str = "log_belief"
+    information_weight: float = 1.0
+    energy_weight: float | None = None
+
+    def __post_init__(self) -> None:
+        check_choice("identity", self.identity, IDENTITY_TERMS)
+        check_number("information_weight", self.information_weight, 0.0)
+        if self.energy_weight is not None:
+            check_number("energy_weight", self.energy_weight, 0.0)
+
+    def term(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+        """``(R,)`` the weighted identity term at a picture, from the belief each robot gave its
+        true row at the previous picture (``before``) and now (``after``)."""
+        if self.identity == "information":
+            return self.information_weight * information(before, after)
+        own = np.log(np.maximum(after, LOG_BELIEF_FLOOR))
+        if self.identity == "team":
+            own = np.full(len(own), own.mean())
+        return self.information_weight * own
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """The learned agent's definition (see the module documentation).
+
+    Attributes:
+        candidates: candidate commands per robot and picture (the policy's choices), >= 1.
+        candidate_features: the features of each candidate, in column order.
+        context_features: the features of the robot's context, in column order.
+        layout: the observation layout (:data:`agents.candidate_features.LAYOUT`).
+        reward: the reward (:class:`Reward`).
+        condition: ``free``, ``swarm`` or ``mixed`` (:data:`CONDITIONS`).
+        budget: on swarm duty, the largest deviation as a fraction of ``v_max`` and
+            ``omega_max``, in [0, 1].
+    """
+
+    candidates: int = CANDIDATES
+    candidate_features: tuple[Feature, ...] = CANDIDATE_SPEC
+    context_features: tuple[Feature, ...] = CONTEXT_SPEC
+    layout: int = LAYOUT
+    reward: Reward = field(default_factory=Reward)
+    condition: str = "free"
+    budget: float = 0.2
+
+    def __post_init__(self) -> None:
+        check_number("candidates", self.candidates, 1, 1024, integer=True)
+        check_choice("condition", self.condition, CONDITIONS)
+        check_number("budget", self.budget, 0.0, 1.0)
+        for name in ("candidate_features", "context_features"):
+            names = [f.name for f in getattr(self, name)]
+            if len(set(names)) != len(names):
+                raise ValueError(f"{name} must have distinct names, got {names}")
+
+    def excitation(self, own: Excitation, common_seed: int = 0) -> Excitation:
+        """``own`` in this spec's condition (:func:`on_duty`)."""
+        return on_duty(self.condition, own, self.budget, common_seed)
+
+    def in_scenario(self, condition: str, budget: float) -> AgentSpec:
+        """This spec in one drawn scenario's condition and budget (training across them)."""
+        return dataclasses.replace(self, condition=condition, budget=budget)
+
+    def observation_space(self) -> spaces.Dict:
+        """One robot's observation space: ``candidates`` ``(C, F)``, ``context`` ``(X,)``."""
+        shape = (self.candidates, len(self.candidate_features))
+        return spaces.Dict(
+            {
+                "candidates": spaces.Box(-np.inf, np.inf, shape, np.float32),
+                "context": spaces.Box(-np.inf, np.inf, (len(self.context_features),), np.float32),
+            }
+        )
+
+    def action_space(self) -> spaces.Discrete:
+        """One robot's action space: which candidate it drives."""
+        return spaces.Discrete(self.candidates)
+
+    def to_json(self) -> dict[str, Any]:
+        """The spec as JSON values (saved with the agent; tuples become lists)."""
+        data: dict[str, Any] = json.loads(json.dumps(dataclasses.asdict(self)))
+        return data
+
+    @classmethod
+    def from_json(cls, data: Any) -> AgentSpec:
+        """The spec :meth:`to_json` wrote.
+
+        Raises:
+            ValueError: ``data`` is not such a spec (the message says what is wrong).
+        """
+        try:
+            values = dict(data)
+            for key in ("candidate_features", "context_features"):
+                if key in values:
+                    values[key] = tuple(Feature(**f) for f in values[key])
+            if "reward" in values:
+                values["reward"] = Reward(**values["reward"])
+            return cls(**values)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"not an agent spec ({error}): {json.dumps(data)[:200]}") from None
+
+    def differences(self, other: AgentSpec) -> list[str]:
+        """What an agent of spec ``other`` would see differently from one of this spec (layout,
+        candidate count, and each feature by position, name and meaning); empty when a policy
+        trained on one reads the other's observations as it learned them."""
+        out = []
+        if self.layout != other.layout:
+            out.append(f"observation layout {other.layout}, this anonloc's is {self.layout}")
+        if self.candidates != other.candidates:
+            out.append(f"{other.candidates} candidates, this spec has {self.candidates}")
+        for group in ("candidate_features", "context_features"):
+            mine, theirs = getattr(self, group), getattr(other, group)
+            for i in range(max(len(mine), len(theirs))):
+                a = mine[i] if i < len(mine) else None
+                b = theirs[i] if i < len(theirs) else None
+                if a == b:
+                    continue
+                if a is None or b is None:
+                    extra = a or b
+                    assert extra is not None
+                    side = "saved agent" if a is None else "this anonloc"
+                    out.append(f"{group}[{i}] {extra.name!r} is only in the {side}")
+                elif a.name != b.name:
+                    out.append(f"{group}[{i}] is {b.name!r} in the saved agent, {a.name!r} here")
+                else:
+                    out.append(
+                        f"{group}[{i}] {a.name!r} means {b.meaning!r} in the saved agent, "
+                        f"{a.meaning!r} here"
+                    )
+        return out
+
+
+def saved_spec(path: Path) -> AgentSpec | None:
+    """The spec saved in the agent zip at ``path``, read from its JSON before anything is
+    unpickled; None for a zip saved before specs existed (or not an SB3 zip: the loader says
+    why).
+
+    Raises:
+        ValueError: the zip holds a spec that is not one.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (zipfile.BadZipFile, KeyError, ValueError, OSError):
+        return None
+    kwargs = data.get("policy_kwargs") if isinstance(data, dict) else None
+    if not isinstance(kwargs, dict) or "spec" not in kwargs:
+        return None
+    return AgentSpec.from_json(kwargs["spec"])
+
+
+def check_saved(path: Path, saved: AgentSpec) -> None:
+    """Refuse the agent at ``path`` (of spec ``saved``) when it would see this anonloc's
+    observations differently (:meth:`agents.spec.AgentSpec.differences`).
+
+    Raises:
+        ValueError: naming what differs.
+    """
+    here = AgentSpec(candidates=saved.candidates)
+    found = here.differences(saved)
+    if found:
+        raise ValueError(
+            f"{path} was trained on other observations than this anonloc computes: "
+            + "; ".join(found)
+            + ". Retrain it with `anonloc train`, or use the bundled agent."
+        )
