@@ -80,6 +80,7 @@ def test_mlp_weights_with_a_non_scalar_absent_score_name_the_file(tmp_path: Path
 
 
 def test_a_misspelt_sweep_gets_a_suggestion(tmp_path: Path) -> None:
+    pytest.importorskip("typer", reason="the command line needs the cli extra")
     from tests.cli_helpers import run_script
 
     done = run_script("study", "--sweep", "densty", "--seeds", "1", "--out", tmp_path / "s")
