@@ -128,8 +128,10 @@ def settings(name: str, config: dict[str, Any]) -> RawSettings:
     """The validated settings of task ``name`` (``RAW`` or ``BELIEF``) from its config dict.
 
     Raises:
-        ValueError: an unknown key (the message lists the valid ones) or a bad value.
+        ValueError: an unknown task or key (the message lists the valid ones) or a bad value.
     """
+    if name not in ("RAW", "BELIEF"):  # "belief" once gave the raw task's settings silently
+        raise ValueError(f"unknown task {name!r}; valid: ['RAW', 'BELIEF']")
     kind = BeliefSettings if name == "BELIEF" else RawSettings
     known = set(kind.__dataclass_fields__)
     unknown = sorted(set(config) - known)

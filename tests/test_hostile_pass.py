@@ -96,3 +96,10 @@ def test_train_step_counts_are_bounded(field: str) -> None:
     # --timesteps 10**30 once started a run that would never end
     with pytest.raises(ValueError, match=rf"{field} must be in \[\d, 1e\+10\], got 10+$"):
         TrainConfig(**{field: 10**30})
+
+
+def test_a_benchmarl_task_name_in_the_wrong_case_is_refused() -> None:
+    benchmarl = pytest.importorskip("agents.benchmarl")
+    with pytest.raises(ValueError, match=r"unknown task 'belief'; valid: \['RAW', 'BELIEF'\]"):
+        benchmarl.settings("belief", {"condition": "swarm"})
+    assert benchmarl.settings("BELIEF", {"condition": "swarm"}).condition == "swarm"
