@@ -45,7 +45,12 @@ from agents.vec import AnonLocVecEnv
 n, copies, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[4])
 clutter = sys.argv[3] == "1"
 camera = {"p_miss": 0.08, "false_positives": 2.0} if clutter else {}
-vec = AnonLocVecEnv(make_config(n_robots=n, camera=camera), n_envs=copies, reward="team")
+config = make_config(n_robots=n, camera=camera)
+try:  # since issue 24 the team reward is part of the agent's spec
+    from agents.spec import AgentSpec, Reward
+    vec = AnonLocVecEnv(config, n_envs=copies, spec=AgentSpec(reward=Reward(identity="team")))
+except ImportError:  # a checkout from before the spec
+    vec = AnonLocVecEnv(config, n_envs=copies, reward="team")
 vec.seed(0)
 vec.reset()
 rng = np.random.default_rng(0)
