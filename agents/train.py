@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
+from agents.conditions import VALIDATION_SEEDS, validation_scenario
 from agents.run_folder import (
     RunLock,
     interrupt_on_sigterm,
@@ -241,18 +242,11 @@ def evaluation_scenario(config: TrainConfig) -> tuple[EnvConfig, str, float]:
     no headings, free motion, 20 pictures."""
     if config.condition != "mixed":
         return config.env_config(), config.condition, config.budget
-    side = 14**0.5
-    scenario = make_config(
-        n_robots=14,
-        arena_size=(side, side),
-        camera={"pixel_noise": 1.0, "orientation": False},
-        max_cycles=401,
-    )
-    return scenario, "free", config.budget
+    return validation_scenario("free", config.budget).config, "free", config.budget
 
 
 #: The progress display's evaluation seeds start here (never a training or benchmark seed).
-PROGRESS_SEEDS = 900_000
+PROGRESS_SEEDS = VALIDATION_SEEDS
 
 
 def train(config: TrainConfig) -> TrainResult:

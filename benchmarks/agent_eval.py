@@ -38,8 +38,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
 from baselines.excitations.code import CentralizedCode
@@ -47,7 +45,7 @@ from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
-from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
+from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median, paired_ratio
 from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
@@ -84,18 +82,6 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
         "firsts": [float(f) for f in firsts],
         "energies": [float(e) for e in energies],
     }
-
-
-def paired_ratio(a: Sequence[float], b: Sequence[float], resamples: int = 10_000) -> Interval95:
-    """``mean(a) / mean(b)`` over episodes played on the same seeds, with a 95 % bootstrap
-    interval that resamples the episodes jointly (seeded)."""
-    x, y = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    if x.shape != y.shape or not len(x):
-        raise ValueError(f"paired samples must have one equal length > 0, got {x.shape, y.shape}")
-    pick = np.random.default_rng(0).integers(0, len(x), size=(resamples, len(x)))
-    ratios = x[pick].mean(axis=1) / np.maximum(y[pick].mean(axis=1), 1e-12)
-    low, high = np.quantile(ratios, [0.025, 0.975])
-    return Interval95(float(x.mean() / max(y.mean(), 1e-12)), float(low), float(high))
 
 
 def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Excitation]]:
