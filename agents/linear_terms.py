@@ -4,7 +4,7 @@ A linear scorer gives candidate ``c`` of a robot the logit ``sum_k weight_k * te
 each term is a named candidate feature (:data:`agents.candidate_features.CANDIDATE_SPEC`) times
 a named gate read from the robot's context. Softmax ignores anything a robot adds to all its
 candidates alike, so every term must vary across candidates; the gates let the preference
-depend on the robot's state: how sure it is, and whether it is on swarm duty.
+depend on the robot's state: whether it has decided its row, and whether it is on swarm duty.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
 search that starts there measures what it learns against chance from its first step
@@ -26,6 +26,8 @@ from typing import Any
 
 from agents.candidate_features import CANDIDATE_COLUMN, CONTEXT_COLUMN, Feature
 
+#: The belief at which the ``decided`` gate opens: ``bayes``'s decision threshold.
+DECIDED = 0.99
 #: The candidate features a term is built from (``speed_sq`` is ``speed`` squared, so that a
 #: preference can favour the middle or the ends of the speed range; ``abs_turn`` is ``|turn|``).
 TERM_BASES = (
@@ -39,7 +41,7 @@ TERM_BASES = (
 #: The gates each base is multiplied by.
 TERM_GATES = (
     Feature("always", "1"),
-    Feature("sure", "the robot's largest belief"),
+    Feature("decided", f"1 once the robot's largest belief is at least {DECIDED}"),
     Feature("on_duty", "1 on swarm duty"),
 )
 #: Every term, named ``base*gate``, in the order of :func:`linear_terms`' last axis.
@@ -65,11 +67,8 @@ def _bases(candidates: Any) -> list[Any]:
 
 def _gates(context: Any) -> list[Any]:
     one = context[:, None, CONTEXT_COLUMN["scored"]] * 0.0 + 1.0
-    return [
-        one,
-        context[:, None, CONTEXT_COLUMN["largest_belief"]],
-        context[:, None, CONTEXT_COLUMN["on_duty"]],
-    ]
+    decided = (context[:, None, CONTEXT_COLUMN["largest_belief"]] >= DECIDED) * 1.0
+    return [one, decided, context[:, None, CONTEXT_COLUMN["on_duty"]]]
 
 
 def linear_terms(candidates: Any, context: Any, stack: Callable[..., Any]) -> Any:

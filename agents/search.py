@@ -1,4 +1,4 @@
-"""Policy search for the linear candidate scorer: the cross-entropy method against chance.
+"""Policy search for the linear candidate scorer: an evolution strategy against chance.
 
 PPO on the Deep-Sets scorer did not beat ``uniform`` (``docs/agents.md``): its gradient is
 estimated from rewards that a coin flip among the same candidates already earns, and 3 M
@@ -8,25 +8,29 @@ decisions did not move it. This module searches the few weights of the linear sc
 seeds (common random numbers), so the noise of the scenario cancels and every generation asks
 only "which weights beat chance here?".
 
-The method (the cross-entropy method, Rubinstein 1999; as used for policy search by Szita and
-Lorincz 2006):
+The method (an evolution strategy with mirrored sampling and rank shaping, as in Salimans et
+al. 2017, "Evolution strategies as a scalable alternative to reinforcement learning"):
 
-1. Start from the mean ``mu = 0`` (the scorer *is* ``uniform`` there) and a spread ``sigma``.
+1. Start from ``mu = 0``: the scorer *is* ``uniform`` there.
 2. Each generation draws ``scenarios`` training scenarios (:func:`agents.conditions.draw_scenario`,
    the conditions of a ``mixed`` run: N in {3, 6, 14, 30, 40}, crowds, clutter, headings and
-   swarm duty) and ``seeds`` seeds for each; plays ``uniform``, ``mu`` and ``population - 1``
-   weight vectors drawn from ``N(mu, sigma^2)`` on all of them.
-3. A member's cost is ``mean_s(P_s / P_s^uniform) + energy_weight * mean_s(E_s / E_s^uniform)``
-   over the scenarios ``s`` (P: censored mean pictures to 99 %, E: mean energy to 99 %).
-4. ``mu`` and ``sigma`` move toward the mean and spread of the ``elite`` cheapest members
-   (smoothed by ``smoothing``; ``sigma`` floored at ``min_std``).
+   swarm duty) and ``seeds`` seeds for each, and plays ``uniform``, ``mu`` and ``pairs``
+   mirrored pairs ``mu +- std * noise`` on all of them.
+3. A member's cost is ``mean_s log(P_s / P_s^uniform) + energy_weight * mean_s log(E_s /
+   E_s^uniform)`` over the scenarios ``s`` (P: censored mean pictures to 99 %, E: mean energy
+   to 99 %): the logs of geometric-mean ratios, so that one scenario where a member jams (12
+   pictures against 3) weighs as much as one where it is 4 times faster, not more.
+4. The costs become centered ranks; ``mu`` moves by ``-step_size`` times the mean over the
+   pairs of ``(rank(+) - rank(-)) * noise``. A pair is played on the same episodes, so what
+   differs between its two members is the direction of the perturbation alone.
 
 Every ``validate_every`` generations ``mu`` and ``uniform`` play the validation condition (14
 robots at one per m², a training N, seeds 900000 and up, never an evaluation seed, free motion
 and swarm duty): the curve in ``progress.csv`` is the run's own start (``uniform``) against its
-progress, with paired intervals. The run folder holds ``search.json`` (the state after each
-generation, written atomically; ``resume`` continues from it and loses nothing) and
-``agent.zip`` (the final ``mu`` as an SB3 agent, :func:`agents.export.save_linear_agent`).
+progress, with paired intervals. The run folder holds ``search.json`` (the config, the state and
+the history after each generation, written atomically: a search killed at any point resumes at
+the generation it was in) and ``agent.zip`` (the final ``mu`` as an SB3 agent,
+:func:`agents.linear_agent.save_linear_agent`).
 """
 
 from __future__ import annotations
@@ -86,28 +90,24 @@ class LinearChooser(CandidateChooser):
 
 @dataclass(frozen=True)
 class SearchConfig:
-    """A cross-entropy search of the linear scorer (see the module documentation)."""
+    """An evolution-strategy search of the linear scorer (see the module documentation)."""
 
     generations: int = 12
     """Generations to run, >= 1."""
-    population: int = 14
-    """Weight vectors played per generation (``mu`` and ``population - 1`` draws), >= 2."""
-    elite: int = 4
-    """The cheapest members, which move ``mu`` and ``sigma``, in [1, population]."""
+    pairs: int = 7
+    """Mirrored pairs ``mu +- std * noise`` played per generation, >= 1."""
     scenarios: int = 8
     """Training scenarios drawn per generation (``agents.conditions.draw_scenario``), >= 1."""
     seeds: int = 2
     """Episodes (seeds) per scenario and member, >= 1."""
-    pictures: int = 20
+    pictures: int = 12
     """Pictures per episode; an episode that never reaches 99 % counts there, >= 2."""
     energy_weight: float = 0.5
     """Weight of the energy ratio to ``uniform`` in the cost (the picture ratio's is 1), >= 0."""
-    init_std: float = 1.0
-    """The initial spread of every weight, > 0."""
-    min_std: float = 0.1
-    """The floor of the spread, in [0, init_std]."""
-    smoothing: float = 0.7
-    """How far ``mu`` and ``sigma`` move toward the elite's per generation, in (0, 1]."""
+    std: float = 0.5
+    """The spread of the perturbations of every weight, > 0."""
+    step_size: float = 1.0
+    """How far ``mu`` moves along the estimated gradient of the ranks per generation, > 0."""
     validate_every: int = 2
     """Generations between two validations of ``mu`` against ``uniform``, >= 1."""
     validation_episodes: int = 30
@@ -121,15 +121,13 @@ class SearchConfig:
 
     def __post_init__(self) -> None:
         check_number("generations", self.generations, 1, 10_000, integer=True)
-        check_number("population", self.population, 2, 1_000, integer=True)
-        check_number("elite", self.elite, 1, self.population, integer=True)
+        check_number("pairs", self.pairs, 1, 1_000, integer=True)
         check_number("scenarios", self.scenarios, 1, 1_000, integer=True)
         check_number("seeds", self.seeds, 1, 1_000, integer=True)
         check_number("pictures", self.pictures, 2, 10_000, integer=True)
         check_number("energy_weight", self.energy_weight, 0.0, 1e6)
-        check_number("init_std", self.init_std, 1e-6, 1e6)
-        check_number("min_std", self.min_std, 0.0, self.init_std)
-        check_number("smoothing", self.smoothing, 1e-6, 1.0)
+        check_number("std", self.std, 1e-6, 1e6)
+        check_number("step_size", self.step_size, 1e-6, 1e6)
         check_number("validate_every", self.validate_every, 1, 10_000, integer=True)
         check_number("validation_episodes", self.validation_episodes, 2, 10_000, integer=True)
         check_number("seed", self.seed, 0, 2**63 - 1, integer=True)
@@ -151,9 +149,9 @@ def play_weights(
 def costs(
     members: np.ndarray, scenarios: Sequence[tuple[Scenario, Sequence[int]]], config: SearchConfig
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """``(cost (P,), ratios (P, 2), decisions)``: each member's cost, its mean picture and
-    energy ratios to ``uniform`` over ``scenarios`` (each with its seeds), and the
-    robot-decisions played (``uniform``'s included)."""
+    """``(cost (P,), ratios (P, 2), decisions)``: each member's cost, its geometric-mean
+    picture and energy ratios to ``uniform`` over ``scenarios`` (each with its seeds), and
+    the robot-decisions played (``uniform``'s included)."""
     ratios = np.zeros((len(members), len(scenarios), 2))
     total = 0
     for s, (scenario, seeds) in enumerate(scenarios):
@@ -166,8 +164,8 @@ def costs(
             played, decisions = play_weights(scenario, weights, seeds, config.pictures)
             ratios[m, s] = played.mean(axis=0) / base
             total += decisions
-    mean = ratios.mean(axis=1)
-    return mean[:, 0] + config.energy_weight * mean[:, 1], mean, total
+    logs = np.log(ratios).mean(axis=1)
+    return logs[:, 0] + config.energy_weight * logs[:, 1], np.exp(logs), total
 
 
 def validate(weights: np.ndarray, episodes: int, pictures: int) -> dict[str, float]:
@@ -198,7 +196,6 @@ class SearchState:
     generation: int = 0
     decisions: int = 0
     mu: list[float] = field(default_factory=lambda: [0.0] * len(LINEAR_TERMS))
-    sigma: list[float] = field(default_factory=list)
     seconds: float = 0.0
 
 
@@ -214,19 +211,27 @@ def generation_scenarios(config: SearchConfig, generation: int) -> list[tuple[Sc
     return out
 
 
+def centered_ranks(cost: np.ndarray) -> np.ndarray:
+    """``cost``'s ranks scaled to [-0.5, 0.5] (ties broken by position): what the update
+    reads instead of the costs themselves, so one outlier scenario cannot dominate it."""
+    ranks = np.empty(len(cost))
+    ranks[np.argsort(cost, kind="stable")] = np.arange(len(cost))
+    return ranks / max(len(cost) - 1, 1) - 0.5
+
+
 def step(state: SearchState, config: SearchConfig, log: Callable[[dict[str, Any]], None]) -> None:
-    """One generation: draw, play, select; ``state`` moves to the next generation."""
+    """One generation: draw mirrored pairs, play them with ``mu`` and ``uniform`` on the same
+    scenarios and seeds, move ``mu`` down the estimated gradient; ``state`` moves on."""
     start = time.perf_counter()
     rng = np.random.default_rng([config.seed, state.generation, 0xD4A3])
-    mu, sigma = np.asarray(state.mu), np.asarray(state.sigma)
-    draws = mu + sigma * rng.standard_normal((config.population - 1, len(mu)))
-    members = np.vstack([mu, draws])
+    mu = np.asarray(state.mu)
+    noise = rng.standard_normal((config.pairs, len(mu)))
+    members = np.vstack([mu, mu + config.std * noise, mu - config.std * noise])
     cost, ratios, decisions = costs(members, generation_scenarios(config, state.generation), config)
-    elite = members[np.argsort(cost, kind="stable")[: config.elite]]
-    a = config.smoothing
-    state.mu = ((1 - a) * mu + a * elite.mean(axis=0)).tolist()
-    spread = elite.std(axis=0) if config.elite > 1 else np.abs(elite[0] - mu)
-    state.sigma = np.maximum((1 - a) * sigma + a * spread, config.min_std).tolist()
+    ranks = centered_ranks(cost[1:])
+    plus, minus = ranks[: config.pairs], ranks[config.pairs :]
+    gradient = ((plus - minus)[:, None] * noise).mean(axis=0)
+    state.mu = (mu - config.step_size * gradient).tolist()
     state.generation += 1
     state.seconds += time.perf_counter() - start
     state.decisions += decisions
@@ -236,8 +241,9 @@ def step(state: SearchState, config: SearchConfig, log: Callable[[dict[str, Any]
             "decisions": state.decisions,
             "mu_pictures": ratios[0, 0],
             "mu_energy": ratios[0, 1],
+            "mu_cost": float(cost[0]),
             "best_cost": float(cost.min()),
-            "mean_sigma": float(np.mean(state.sigma)),
+            "step": float(config.step_size * np.linalg.norm(gradient)),
         }
     )
 
@@ -288,7 +294,7 @@ def search(
         state = SearchState(**saved["state"])
         history: list[dict[str, Any]] = saved["history"]
     else:
-        state = SearchState(sigma=[config.init_std] * len(LINEAR_TERMS))
+        state = SearchState()
         history = []
 
     def save() -> None:
@@ -335,7 +341,8 @@ def _summary(row: dict[str, Any]) -> str:
     if "mu_pictures" in row:
         text += (
             f": train pictures {row['mu_pictures']:.3f}x, energy {row['mu_energy']:.3f}x uniform"
-            f", best cost {row['best_cost']:.3f}, sigma {row['mean_sigma']:.2f}"
+            f", cost {row['mu_cost']:.3f} (best member {row['best_cost']:.3f}), step"
+            f" {row['step']:.2f}"
         )
     if "free_pictures" in row:
         text += "; validation " + ", ".join(

@@ -106,6 +106,23 @@ def median_text(row: dict[str, Any]) -> str:
     return str(median)
 
 
+def row_text(row: dict[str, Any]) -> str:
+    """A row's pictures, median, episodes reached, energy and wrong share, as table cells."""
+    return (
+        f"{row['pictures']:.2f} [{row['low']:.2f}, {row['high']:.2f}] | {median_text(row)} | "
+        f"{row['reached']}/{row['episodes']} | {row['energy']:.2f} | "
+        f"{100 * row['wrong']:.2f} %"
+    )
+
+
+def write_rows(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """The rows as JSON at ``path``, written atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(list(rows), indent=1))
+    tmp.replace(path)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="bundled", help="a saved agent, or 'bundled'")
@@ -147,18 +164,10 @@ def main() -> None:
                 "seconds": time.perf_counter() - start,
             }
             rows.append(row)
-            print(
-                f"| {name} | {excitation} | {row['pictures']:.2f} [{row['low']:.2f}, "
-                f"{row['high']:.2f}] | {median_text(row)} | {row['reached']}/{row['episodes']} "
-                f"| {row['energy']:.2f} "
-                f"| {100 * row['wrong']:.2f} % | {limit.information:.2f} / {limit.union:.2f} |",
-                flush=True,
-            )
+            limits = f"{limit.information:.2f} / {limit.union:.2f}"
+            print(f"| {name} | {excitation} | {row_text(row)} | {limits} |", flush=True)
             if args.json:
-                args.json.parent.mkdir(parents=True, exist_ok=True)
-                tmp = args.json.with_suffix(".tmp")
-                tmp.write_text(json.dumps(rows, indent=1))
-                tmp.replace(args.json)
+                write_rows(args.json, rows)
     print_ratios(rows)
 
 

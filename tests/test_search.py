@@ -28,8 +28,7 @@ from baselines.runner import run_episode
 #: A search small enough for a test: 3 robots, 4 pictures, one scenario of one seed.
 TINY = SearchConfig(
     generations=2,
-    population=3,
-    elite=2,
+    pairs=1,
     scenarios=1,
     seeds=1,
     pictures=4,
@@ -95,7 +94,8 @@ def test_a_linear_agent_round_trips_with_its_spec(tmp_path: Path) -> None:
     observations, _ = env.reset(seed=1)
     team.reset(np.random.SeedSequence(1).spawn(5))
     actions = team.act([observations[a] for a in env.possible_agents])
-    assert actions.shape == (5, 2) and np.all(np.isfinite(actions))
+    assert actions.shape == (5, 2)
+    assert np.all(np.isfinite(actions))
 
 
 def test_a_linear_agent_whose_term_means_otherwise_is_refused(tmp_path: Path) -> None:
@@ -129,11 +129,10 @@ def test_the_spec_records_the_scorer_and_its_terms() -> None:
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
-        ("population", 1, "population"),
-        ("elite", 15, "elite"),
+        ("pairs", 0, "pairs"),
         ("pictures", 1, "pictures"),
-        ("smoothing", 0.0, "smoothing"),
-        ("min_std", 2.0, "min_std"),
+        ("std", 0.0, "std"),
+        ("step_size", -1.0, "step_size"),
         ("energy_weight", -1.0, "energy_weight"),
     ],
 )
@@ -142,7 +141,7 @@ def test_search_config_is_checked_when_built(field: str, value: object, message:
         dataclasses.replace(SearchConfig(), **{field: value})
 
 
-class _Killed(Exception):
+class _KilledError(Exception):
     pass
 
 
@@ -153,9 +152,9 @@ def test_a_search_killed_after_a_generation_resumes_and_loses_nothing(tmp_path: 
     def kill_after_first(line: str) -> None:
         seen.append(line)
         if line.startswith("generation 0"):
-            raise _Killed
+            raise _KilledError
 
-    with pytest.raises(_Killed):
+    with pytest.raises(_KilledError):
         search(TINY, tmp_path / "cut", log=kill_after_first)
     assert not (tmp_path / "cut" / "agent.zip").exists()
     with pytest.raises(FileExistsError, match="holds a search"):
@@ -182,13 +181,16 @@ def test_anonloc_search_runs_as_users_run_it(tmp_path: Path) -> None:
     from tests.cli_helpers import run_script
 
     out = tmp_path / "search"
-    small = ["--population", "2", "--elite", "1", "--scenarios", "1", "--seeds", "1"]
+    small = ["--pairs", "1", "--scenarios", "1", "--seeds", "1"]
     small += ["--pictures", "3", "--validation-episodes", "2", "--generations", "1"]
     done = run_script("search", out, *small, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "generation 0" in done.stdout and (out / "agent.zip").is_file()
+    assert "generation 0" in done.stdout
+    assert (out / "agent.zip").is_file()
     again = run_script("search", out, *small)
-    assert again.returncode != 0 and "holds a search" in again.stderr
-    bad = run_script("search", tmp_path / "other", "--population", "2", "--elite", "3")
-    assert bad.returncode != 0 and "elite" in bad.stderr
+    assert again.returncode != 0
+    assert "holds a search" in again.stderr
+    bad = run_script("search", tmp_path / "other", "--pairs", "0")
+    assert bad.returncode != 0
+    assert "pairs" in bad.stderr
     assert not (tmp_path / "other" / "search.json").exists()
