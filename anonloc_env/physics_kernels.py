@@ -9,15 +9,17 @@ each, and give the same floats to the bit (``tests/test_physics_kernels.py`` ste
 ways and compares every pose). numba is optional: without it, or with ``ANONLOC_JIT=0`` in the
 environment, :data:`AVAILABLE` is False and the world runs its numpy code.
 
-Bit for bit: numba's ``math.cos``/``math.sin`` call the same libm as numpy's float64 loops;
-complex products are written out as numpy computes them (``(a c - b d) + i (a d + b c)``, a real
-operand promoted to ``x + 0i``); maxima keep numpy's NaN rule; the sums of the pushes follow
-``np.bincount``'s order. The complex modulus is *not* numpy's (``np.abs`` of a complex number and
-``hypot`` differ in the last bit), so circles, whose separation needs it, keep the numpy path,
-and the neighbour list is always built by numpy.
+Bit for bit: numba's ``math.cos``/``math.sin`` call the C library, as numpy's float64 loops do
+here; complex products are written out as numpy computes them, ``(a c - b d) + i (a d + b c)``
+with fused multiply-adds (``fma(a, c, -b d)``, ``fma(a, d, b c)``: numpy's SIMD loops on a CPU
+with FMA) or without, a real operand promoted to ``x + 0i``; maxima keep numpy's NaN rule; the
+sums of the pushes follow ``np.bincount``'s order. :func:`mode` checks numpy's products and
+transcendentals once and turns the kernels off where neither form matches. The complex modulus
+is not numpy's (``np.abs`` of a complex number and ``hypot`` differ in the last bit), so circles,
+whose separation needs it, keep the numpy pass, and the neighbour list is always built by numpy.
 
-The kernels compile on first use (about two seconds, once per machine: ``cache=True`` keeps the
-machine code next to this file), not at import.
+The kernels compile on first use (about four seconds, once per installation: ``cache=True``
+keeps the machine code next to this file), not at import.
 """
 
 from __future__ import annotations
@@ -340,5 +342,15 @@ def mode() -> bool | None:
     multiply neither form matches); else whether they fuse their complex products, as this
     machine's numpy does (checked once)."""
     if not _MODE:
-        _MODE.append(numpy_fuses() if AVAILABLE else None)
+        _MODE.append(numpy_fuses() if AVAILABLE and _same_cos_sin() else None)
     return _MODE[0]
+
+
+def _same_cos_sin() -> bool:
+    """Whether numpy's float64 ``cos`` and ``sin`` are the C library's (which compiled code
+    calls), on angles where vectorised forms tend to differ."""
+    angles = np.random.default_rng(2).uniform(-50.0, 50.0, 4096)
+    cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
+    return cos == [math.cos(a) for a in angles.tolist()] and sin == [
+        math.sin(a) for a in angles.tolist()
+    ]
