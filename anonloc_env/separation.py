@@ -41,7 +41,7 @@ from functools import partial
 import numpy as np
 import pymunk
 
-from anonloc_env import physics_kernels
+from anonloc_env import compiled
 from anonloc_env.config import RobotConfig
 from anonloc_env.neighbours import expand_ranges
 
@@ -92,7 +92,7 @@ class Separator:
         self._drift = np.float64(CLOSE_MARGIN * robot.size / 2.0 / math.sqrt(2.0))
         self._anchor: np.ndarray | None = None  # positions (x + iy) when the list was built
         self._anchor_xy = np.zeros((n, 2))  # the same as (N, 2) rows (x, y)
-        # The compiled pass's bounds (physics_kernels.separate).
+        # The compiled pass's bounds (compiled.separate).
         self._params = np.array(
             [self.half, self.allowed, self.stop, self._margin, self._stale, self._drift]
         )
@@ -114,7 +114,7 @@ class Separator:
     def separate_compiled(
         self, state: np.ndarray, heading: np.ndarray, low: np.ndarray, high: np.ndarray, fused: bool
     ) -> None:
-        """:meth:`separate` through :func:`anonloc_env.physics_kernels.separate` (same floats) for
+        """:meth:`separate` through :func:`anonloc_env.compiled.separate` (same floats) for
         the positions in the first two columns of ``state`` ``(N + 1, 7)``, clamped to
         ``low``/``high`` as ``World._clamp_to_arena`` does; circles go through :meth:`separate`."""
         xy = state[: self.n, :2]
@@ -128,7 +128,7 @@ class Separator:
             if self._anchor is None:
                 self.neighbours(z)
                 check = False
-            done = physics_kernels.separate(
+            done = compiled.separate(
                 state, self.n, heading, self._pairs, self._anchor_xy, low, high,
                 self._params, left, fused, check,
             )  # fmt: skip

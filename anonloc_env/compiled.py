@@ -1,11 +1,12 @@
-"""Compiled forms of the physics sub-step's numpy work (numba; the optional ``fast`` extra).
+"""Compiled forms of the env's small, hot numpy loops (numba; the optional ``fast`` extra): the
+physics sub-step, odometry, and the neighbour search of small point sets.
 
 A physics sub-step of :class:`anonloc_env.world.World` around pymunk's step is a few dozen numpy
 calls on arrays of N robots (the move by the solved velocities, the headings and arena limits,
 the clamp, the position correction's pass over the neighbour list, the wheel travel). At the N
 that agents learn on (3 to 40 robots) numpy's cost per call, not the work, is most of a step.
 These kernels do the same arithmetic, element by element in the same order, in one compiled call
-each, and give the same floats to the bit (``tests/test_physics_kernels.py`` steps worlds both
+each, and give the same floats to the bit (``tests/test_compiled.py`` steps worlds both
 ways and compares every pose). numba is optional: without it, or with ``ANONLOC_JIT=0`` in the
 environment, :data:`AVAILABLE` is False and the world runs its numpy code.
 
@@ -354,3 +355,62 @@ def _same_cos_sin() -> bool:
     return cos == [math.cos(a) for a in angles.tolist()] and sin == [
         math.sin(a) for a in angles.tolist()
     ]
+
+
+@_jit
+def integrate(
+    odo: np.ndarray,
+    forward: np.ndarray,
+    turned: np.ndarray,
+    distance_factor: np.ndarray,
+    turn_factor: np.ndarray,
+    noisy: bool,
+    step_ds: np.ndarray,
+    step_dth: np.ndarray,
+) -> None:
+    """``Odometry.integrate``'s dead reckoning: ``odo`` ``(N, 3)`` own-frame ``(x, y, phi)``
+    advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (times the noise factors
+    if ``noisy``), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    for s in range(forward.shape[0]):
+        for k in range(odo.shape[0]):
+            ds, dth = forward[s, k], turned[s, k]
+            if noisy:
+                ds = ds * distance_factor[k]
+                dth = dth * turn_factor[k]
+            step_ds[k] += abs(ds)
+            step_dth[k] += dth
+            phi = odo[k, 2]
+            odo[k, 0] += math.cos(phi) * ds
+            odo[k, 1] += math.sin(phi) * ds
+            odo[k, 2] = phi + dth
+
+
+@_jit
+def pairs_within(
+    a: np.ndarray, b: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``neighbours.pairs_within`` by looking at every pair: the pairs whose grid cells (``radius``
+    wide, from the same origin) touch and whose distance (``hypot``) is at most ``radius``, in
+    the order ``i`` then ``j``, as the grid search finds and sorts them."""
+    n, m = a.shape[0], b.shape[0]
+    x0 = min(a[:, 0].min(), b[:, 0].min()) - radius
+    y0 = min(a[:, 1].min(), b[:, 1].min()) - radius
+    cells_b = np.empty((m, 2), dtype=np.int64)
+    for j in range(m):
+        cells_b[j, 0] = np.int64(math.floor((b[j, 0] - x0) / radius))
+        cells_b[j, 1] = np.int64(math.floor((b[j, 1] - y0) / radius))
+    found_i = np.empty(n * m, dtype=np.int64)
+    found_j = np.empty(n * m, dtype=np.int64)
+    found_d = np.empty(n * m)
+    count = 0
+    for i in range(n):
+        cx = np.int64(math.floor((a[i, 0] - x0) / radius))
+        cy = np.int64(math.floor((a[i, 1] - y0) / radius))
+        for j in range(m):
+            if abs(cells_b[j, 0] - cx) > 1 or abs(cells_b[j, 1] - cy) > 1:
+                continue
+            dist = math.hypot(b[j, 0] - a[i, 0], b[j, 1] - a[i, 1])
+            if dist <= radius:
+                found_i[count], found_j[count], found_d[count] = i, j, dist
+                count += 1
+    return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
