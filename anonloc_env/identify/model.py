@@ -179,7 +179,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         # positives it made `random` slower and less reliable at one robot per m^2 (docs/crowds.md).
         crowd_push_share=CROWD_PUSH_SHARE if clean else None,
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
-        registration=registration_prior(config),
+        registration=registration_prior(config, cam.pixel_noise),
     )
 
 
