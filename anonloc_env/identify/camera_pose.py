@@ -12,27 +12,33 @@ one transform per picture shared by all rows: a similarity about the principal p
 
 The estimator uses what every robot has, the pictures: the robots are the scene. Between two
 pictures every row moves by the camera's change plus its robot's own displacement, which is
-unknown to the others but bounded, persistent from one interval to the next, and of zero mean
-over many robots. So, at each picture:
+unknown to the others but bounded and of zero mean over many robots. So, at each picture:
 
-1. the rows are mapped through the previous picture's transform, shifted by the offset most
-   pairs of rows agree on (a mean shift over the pairs within reach), and each is matched to the row
-   of the previous (registered) picture it continues, predicted one displacement on (the robot
-   keeps its motion, as :mod:`anonloc_env.identify.others` models it; less the similarity all
-   displacements share, which holds the registration's own error), mutual nearest neighbours within
-   the reach of a robot plus the camera's change;
-2. the transform is the maximum a posteriori fit of the matched pairs (weighted least squares,
+1. each row of the previous (registered) picture is predicted on: a robot that moved keeps its
+   heading (the direction of its previous displacement, less the displacement the whole team
+   shared, which holds the previous registration's error) and moves the team's typical step
+   (the median previous displacement); one that did not, or whose motion is unknown, may move
+   that step in any direction;
+2. the rows are mapped through the previous picture's transform, shifted by the offset most
+   pairs of rows agree on (a mean shift over the pairs within reach, so that a camera change as
+   large as the robots' spacing is still matched), and matched to the predicted rows, mutual
+   nearest neighbours within the reach of a robot plus the camera's change;
+3. the transform is the maximum a posteriori fit of the matched pairs (weighted least squares,
    linear in ``(a, b, tx, ty)``), with a Gaussian prior on its change since the previous picture
-   and on its distance from the set point, both from the hover's processes (their stationary and
-   inter-picture spreads), each pair weighted by how predictable its robot's displacement is,
-   and down-weighted (Cauchy) when its residual says it is a wrong match, a false positive or a
-   robot crossing the edge of the view; matched again and refitted once.
+   and on its distance from the set point, both from the hover's processes; the pairs'
+   spreads are set to their own residuals (a robust scale, apart for the robots that kept a
+   heading and the others), and a pair whose residual says it is a wrong match, a false positive
+   or a robot crossing the edge of the view is down-weighted (Cauchy); matched again and
+   refitted once.
 
-Its error is what the robots' unknown displacements leave: about their spread over the square
-root of the matches (:func:`registration_error`). The sensor model adds it to the pixel noise
-(:func:`registered_pixel_noise`), so the identifier's beliefs stay calibrated. With ground
-landmarks the detection source registers the picture itself (:mod:`anonloc_env.landmarks`) and
-this estimator is not used.
+Its error is what the robots' unknown displacements leave: the fit's posterior spread, at each
+picture, from its own residuals, widened by the measured :data:`ERROR_FACTOR`
+(:attr:`Registration.error`). The identifier adds it to that
+picture's pixel noise (:attr:`Registration.pixel_var`), so that a picture registered badly (few
+robots in view, scattered displacements) weighs less; the sensor model's nominal figure
+(:func:`registered_pixel_noise`, what the agent's candidate predictions and the corrected
+localizers read) is a bound from the config. With ground landmarks the detection source
+registers the picture itself (:mod:`anonloc_env.landmarks`) and this estimator is not used.
 """
 
 from __future__ import annotations
@@ -49,10 +55,20 @@ from anonloc_env.neighbours import pairs_within
 
 #: Cauchy scale of the pair weights, in standard deviations of a pair's residual.
 CAUCHY_SIGMAS = 2.5
-#: Standard deviation of a persistent robot's displacement change, per component: a fixed part
-#: (m) and a part per metre of the displacement (the identifier's ``others`` model, measured).
-PERSIST_JITTER = 0.03
-PERSIST_TURN = 0.35
+#: A displacement shorter than this share of the team's typical one gives no heading.
+HEADING_MIN = 0.25
+#: Spread of a robot's guess that kept its heading, per component, as a share of the typical
+#: displacement, before the fit rescales it to its residuals.
+DIRECTED_SHARE = 0.35
+#: The fit's posterior spread understates the registration's true error by this factor (measured
+#: against the camera's true change, 25 robots driving under ``drone-hover``, five seeds: 1.44
+#: to 1.76): it takes the robots' displacements as independent, which walls and the view's
+#: edges make them not quite. The stated error is widened by it.
+ERROR_FACTOR = 1.6
+#: Fewest pairs a robust scale (or the typical displacement) is taken from.
+MIN_PAIRS = 4
+#: Median length of a two-dimensional standard Gaussian vector: ``sqrt(2 ln 2)``.
+RAYLEIGH_MEDIAN = math.sqrt(2.0 * math.log(2.0))
 
 
 @dataclass(frozen=True)
@@ -62,9 +78,10 @@ class RegistrationPrior:
     Attributes:
         centre: the principal point ``(cu, cv)``, about which the similarity turns and scales.
         spread: standard deviation per component of a robot's displacement between two
-            pictures when nothing predicts it (image units).
-        persist: ``(fixed, per_length)``: that of a robot keeping its previous displacement
-            (image units, and per image unit of displacement).
+            pictures when nothing predicts it (image units), before the fit rescales it.
+        pixel_noise: the detector's standard deviation per coordinate (image units).
+        radius: root mean square distance of the field of view's points from its centre
+            (image units).
         change: standard deviations of the change of ``(a, b, tx, ty)`` between two pictures.
         absolute: standard deviations of ``(a - 1, b, tx, ty)`` about the set point.
         reach: the farthest a row moves between two pictures (image units): a robot's largest
@@ -73,7 +90,8 @@ class RegistrationPrior:
 
     centre: tuple[float, float]
     spread: float
-    persist: tuple[float, float]
+    pixel_noise: float
+    radius: float
     change: tuple[float, float, float, float]
     absolute: tuple[float, float, float, float]
     reach: float
@@ -84,9 +102,13 @@ def _ou_change(sigma: float, tau: float, interval: float) -> float:
     return sigma * math.sqrt(2.0 * (1.0 - math.exp(-interval / tau)))
 
 
-def registration_prior(config: EnvConfig) -> RegistrationPrior | None:
+def registration_prior(
+    config: EnvConfig, pixel_noise: float | None = None
+) -> RegistrationPrior | None:
     """The prior of ``config``'s camera motion, or ``None`` for a fixed camera, or one whose
-    pictures its landmarks register (the detection source does it)."""
+    pictures its landmarks register (the detection source does it). ``pixel_noise``: the
+    detector's (image units; default ``camera.pixel_noise``, the image source's measured one
+    where the sensor model has it)."""
     cam = config.camera
     if not cam.moves or cam.landmarks:
         return None
@@ -114,7 +136,8 @@ def registration_prior(config: EnvConfig) -> RegistrationPrior | None:
     return RegistrationPrior(
         centre=(float(centre[0]), float(centre[1])),
         spread=0.5 * step,
-        persist=(PERSIST_JITTER * s, PERSIST_TURN),
+        pixel_noise=float(cam.pixel_noise if pixel_noise is None else pixel_noise),
+        radius=_radius(config),
         change=(
             max(rotate_change, floor),
             max(rotate_change, floor),
@@ -182,6 +205,9 @@ class Registration:
 
     Attributes:
         transform: ``(4,)`` ``(a, b, tx, ty)`` of the newest picture (raw to set-point frame).
+        error: the newest registration's own error (image units, per coordinate, root mean
+            square over the rows): the posterior spread of its change since the previous
+            picture, the fit's residuals setting the robots' spread.
     """
 
     def __init__(self, prior: RegistrationPrior, orientation: bool = True) -> None:
@@ -194,43 +220,64 @@ class Registration:
     def reset(self) -> None:
         """Forget the episode: the next picture is taken as seen from the set point."""
         self.transform = np.array([1.0, 0.0, 0.0, 0.0])
+        self.error = 0.0
         self._previous: np.ndarray | None = None  # registered (u, v) of the previous picture
         self._motion: np.ndarray | None = None  # each previous row's last displacement (or nan)
+        self._step: float | None = None  # the team's typical displacement (image units)
+
+    @property
+    def pixel_var(self) -> float:
+        """The variance per coordinate a registered row carries into a displacement between the
+        previous picture and the newest: the detector's, plus half the registration's (a
+        displacement takes two rows' noise and one registration error)."""
+        return self.prior.pixel_noise**2 + 0.5 * self.error**2
 
     def register(self, rows: np.ndarray) -> np.ndarray:
         """The picture ``rows`` ``(M, 3)`` in the set point's frame (same order)."""
         rows = np.asarray(rows, dtype=np.float64)
         if self._previous is None or len(rows) == 0 or len(self._previous) == 0:
             registered = apply(self.transform, self.prior.centre, rows)
-            self._remember(registered, None, None)
+            self.error = _first_error(self.prior)
+            self._remember(registered, None)
             return registered
+        guess = self._predicted()
         transform = self.transform.copy()
-        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]))
+        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
         pairs = None
         for _ in range(2):
-            pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]))
-            transform = self._fit(rows[:, :2], pairs, transform)
+            pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
+            transform, self.error = self._fit(rows[:, :2], pairs, guess, transform)
         self.transform = transform
         registered = apply(transform, self.prior.centre, rows)
-        self._remember(registered, pairs, registered)
+        self._remember(registered, pairs)
         return registered
 
-    def _predicted(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where each previous row's robot should be now, and the spread of that guess."""
+    def _predicted(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where each previous row's robot should be now, the spread of that guess (image units,
+        per component, before the fit rescales it) and whether it kept a heading: a robot that
+        moved keeps its heading and moves the team's typical step; one that did not, or whose
+        motion is unknown, moves that step in any direction."""
         assert self._previous is not None
         assert self._motion is not None
-        known = np.isfinite(self._motion[:, 0])
-        motion = np.where(known[:, None], self._motion, 0.0)
-        fixed, per_length = self.prior.persist
-        length = np.hypot(motion[:, 0], motion[:, 1])
-        sigma = np.where(known, np.hypot(fixed, per_length * length), self.prior.spread)
-        return self._previous + motion, sigma
+        target = self._previous.copy()
+        count = len(target)
+        if self._step is None:  # the first interval: nothing known of the robots' motion
+            return target, np.full(count, self.prior.spread), np.zeros(count, bool)
+        floor = _residual_floor(self.prior)
+        sigma = np.full(count, max(self._step / math.sqrt(2.0), floor))
+        length = np.hypot(self._motion[:, 0], self._motion[:, 1])
+        directed = np.isfinite(length) & (length > 0.0)
+        directed &= length >= HEADING_MIN * self._step
+        if self._step > 0.0:
+            target[directed] += self._motion[directed] * (self._step / length[directed])[:, None]
+            sigma[directed] = max(DIRECTED_SHARE * self._step, floor)
+        return target, sigma, directed
 
-    def _coarse_shift(self, moved: np.ndarray) -> np.ndarray:
+    def _coarse_shift(self, moved: np.ndarray, guess: tuple[np.ndarray, ...]) -> np.ndarray:
         """``(2,)`` the shift most pairs of rows agree on: the mode of the pairs' offsets
         (mean shift, its kernel narrowed from twice the camera's expected change to a robot's
         spread), so that a camera change as large as the robots' spacing is still matched."""
-        target, sigma = self._predicted()
+        target, sigma, _ = guess
         i, j, _ = pairs_within(moved, target, self.prior.reach)
         shift = np.zeros(2)
         if len(i) == 0:
@@ -252,25 +299,32 @@ class Registration:
         length = float(np.hypot(*shift))
         return shift * (limit / length) if length > limit else shift
 
-    def _match(self, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Mutual nearest pairs ``(row, previous row, spread)`` between the rows ``moved`` (through
-        the current transform) and the previous rows' predicted places, within the reach."""
-        target, sigma = self._predicted()
+    def _match(
+        self, moved: np.ndarray, guess: tuple[np.ndarray, ...]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Mutual nearest pairs ``(row, previous row)`` between the rows ``moved`` (through the
+        current transform) and the previous rows' predicted places, within the reach."""
+        target, sigma, _ = guess
         i, j, dist = pairs_within(moved, target, self.prior.reach)
         if len(i) == 0:
-            return i, j, np.zeros(0)
+            return i, j
         score = dist / sigma[j]
         best_i = _best(i, j, score, len(moved))
         best_j = _best(j, i, score, len(target))
         mutual = (best_i[i] == j) & (best_j[j] == i)
-        return i[mutual], j[mutual], sigma[j[mutual]]
+        return i[mutual], j[mutual]
 
     def _fit(
-        self, raw: np.ndarray, pairs: tuple[np.ndarray, np.ndarray, np.ndarray], start: np.ndarray
-    ) -> np.ndarray:
-        """The transform's maximum a posteriori fit to the pairs (Cauchy-reweighted, 3 rounds)."""
-        i, j, sigma = pairs
-        target, _ = self._predicted()
+        self,
+        raw: np.ndarray,
+        pairs: tuple[np.ndarray, np.ndarray],
+        guess: tuple[np.ndarray, ...],
+        start: np.ndarray,
+    ) -> tuple[np.ndarray, float]:
+        """The transform's maximum a posteriori fit to the pairs (Cauchy-reweighted, 3 rounds,
+        the guesses' spreads rescaled to the residuals after the first) and its error."""
+        i, j = pairs
+        target, sigma0, directed = guess
         cu, cv = self.prior.centre
         du, dv = raw[i, 0] - cu, raw[i, 1] - cv
         # Rows of the design: u' - cu = a du - b dv + tx, v' - cv = b du + a dv + ty.
@@ -280,47 +334,68 @@ class Registration:
         observed = np.empty(2 * len(i))
         observed[0::2], observed[1::2] = target[j, 0] - cu, target[j, 1] - cv
         home = np.array([1.0, 0.0, 0.0, 0.0])
-        transform = start
-        for _ in range(3):
+        transform, sigma = start, sigma0[j]
+        prior_w = self._change_w + self._absolute_w
+        normal = np.diag(prior_w)
+        for round_ in range(3):
             residual = (observed - design @ transform).reshape(-1, 2)
-            r = np.hypot(residual[:, 0], residual[:, 1]) / sigma
-            weight = 1.0 / (sigma**2 * (1.0 + (r / CAUCHY_SIGMAS) ** 2))
+            norm = np.hypot(residual[:, 0], residual[:, 1])
+            if round_:
+                sigma = _rescaled(norm, sigma0[j], directed[j], _residual_floor(self.prior))
+            weight = 1.0 / (sigma**2 * (1.0 + (norm / (CAUCHY_SIGMAS * sigma)) ** 2))
             w2 = np.repeat(weight, 2)
             normal = design.T @ (w2[:, None] * design)
-            normal[np.diag_indices(4)] += self._change_w + self._absolute_w
+            normal[np.diag_indices(4)] += prior_w
             rhs = design.T @ (w2 * observed) + self._change_w * self.transform
             rhs += self._absolute_w * home
             transform = np.linalg.solve(normal, rhs)
-        return transform
+        cov = np.linalg.inv(normal)
+        spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
+        error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
+        return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0))
 
     def _remember(
-        self,
-        registered: np.ndarray,
-        pairs: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
-        now: np.ndarray | None,
+        self, registered: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None
     ) -> None:
-        """Keep this picture's registered rows and, for the matched ones, their displacement."""
+        """Keep this picture's registered rows, the matched ones' displacement and the team's
+        typical displacement (the median matched one)."""
         motion = np.full((len(registered), 2), np.nan)
-        if pairs is not None and now is not None and self._previous is not None:
-            i, j, _ = pairs
-            if len(i) >= 2:
-                # Less the similarity all rows share: that is the camera's (its error included),
-                # which must not be predicted to persist.
-                motion[i] = now[i, :2] - _common(self._previous[j], now[i, :2])
+        if pairs is not None and self._previous is not None:
+            i, j = pairs
+            motion[i] = registered[i, :2] - self._previous[j]
+            if len(i) >= MIN_PAIRS:
+                # Less the displacement the team shares (its median): that holds this picture's
+                # registration error, which must not be predicted to persist.
+                motion[i] -= np.median(motion[i], axis=0)
+                self._step = float(np.median(np.hypot(motion[i, 0], motion[i, 1])))
         self._previous = registered[:, :2].copy()
         self._motion = motion
 
 
-def _common(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``before`` ``(M, 2)`` through the similarity that maps it best onto ``after`` (least
-    squares: ``after ~ z before + t`` in complex numbers)."""
-    cb, ca = before.mean(axis=0), after.mean(axis=0)
-    zb = (before[:, 0] - cb[0]) + 1j * (before[:, 1] - cb[1])
-    za = (after[:, 0] - ca[0]) + 1j * (after[:, 1] - ca[1])
-    spread = float(np.sum(np.abs(zb) ** 2))
-    z = complex(np.sum(np.conj(zb) * za) / spread) if spread > 0.0 else 1.0
-    moved = z * zb
-    return np.column_stack([moved.real + ca[0], moved.imag + ca[1]])
+def _first_error(prior: RegistrationPrior) -> float:
+    """The error of a picture registered with nothing to match (the previous picture's
+    transform kept): the camera's change itself, per coordinate over the view."""
+    shift, turn = prior.change[2], prior.change[0]
+    return math.sqrt(shift**2 + 0.5 * turn**2 * prior.radius**2)
+
+
+def _residual_floor(prior: RegistrationPrior) -> float:
+    """The smallest spread a guess may take (image units): two rows' detector noise, or a
+    hundredth of a pixel for noise-free pictures."""
+    return max(math.sqrt(2.0) * prior.pixel_noise, 0.01)
+
+
+def _rescaled(
+    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float
+) -> np.ndarray:
+    """The guesses' spreads ``sigma`` set, for the directed and the other pairs apart where
+    each has :data:`MIN_PAIRS`, to their residuals' robust scale: the median residual length
+    over a two-dimensional Gaussian's (:data:`RAYLEIGH_MEDIAN`)."""
+    out = sigma.copy()
+    for group in (directed, ~directed):
+        if int(group.sum()) >= MIN_PAIRS:
+            out[group] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
+    return out
 
 
 def _best(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:
