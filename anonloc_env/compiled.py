@@ -414,3 +414,84 @@ def pairs_within(
                 found_i[count], found_j[count], found_d[count] = i, j, dist
                 count += 1
     return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
+
+
+@_jit
+def _block_sum(a: np.ndarray, start: int, n: int) -> float:
+    """numpy's pairwise sum of ``a[start:start + n]``, ``n <= 128``: in order below 8 items,
+    else eight running sums combined as a tree, then the rest in order."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[start + i]
+        return res
+    r = a[start : start + 8].copy()
+    i, end = 8, n - n % 8
+    while i < end:
+        for k in range(8):
+            r[k] += a[start + i + k]
+        i += 8
+    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while i < n:
+        res += a[start + i]
+        i += 1
+    return res
+
+
+@_jit
+def _sum(a: np.ndarray) -> float:
+    """``a.sum()`` as numpy adds a row of at most 256 items: blocks of 128, halves above."""
+    n = len(a)
+    if n <= 128:
+        return _block_sum(a, 0, n)
+    half = n // 2
+    half -= half % 8
+    return _block_sum(a, 0, half) + _block_sum(a, half, n - half)
+
+
+@_jit
+def leave_out_sums(w: np.ndarray, w_end: float, powers: np.ndarray) -> np.ndarray:
+    """``identify.others._leave_out_sums`` (its dynamic programme over the sets of used columns,
+    every leave-out at once) for ``w`` ``(C, rows, columns)``, at most 8 columns; ``powers``
+    ``(columns + 1,)``: ``w_new ** k`` as numpy computes it. ``(C, rows + 1, columns + 1)``."""
+    n_c, n_a, n_b = w.shape
+    n_v, n_m = (n_a + 1) * (n_b + 1), 1 << n_b
+    f = np.zeros((n_c, n_v, n_m))
+    f[:, :, 0] = 1.0
+    g = np.empty_like(f)
+    for r in range(n_a):
+        for v in range(n_v):
+            active = v // (n_b + 1) - 1 != r
+            for c in range(n_c):
+                for m in range(n_m):
+                    g[c, v, m] = f[c, v, m] * w_end if active else f[c, v, m]
+        for q in range(n_b):
+            edge = False
+            for c in range(n_c):
+                edge |= w[c, r, q] != 0.0
+            if not edge:
+                continue
+            bit = 1 << q
+            for v in range(n_v):
+                on = v // (n_b + 1) - 1 != r and v % (n_b + 1) - 1 != q
+                for c in range(n_c):
+                    weight = w[c, r, q] * (1.0 if on else 0.0)
+                    for m in range(n_m):
+                        if m & bit:
+                            g[c, v, m] += f[c, v, m ^ bit] * weight
+        f, g = g, f
+    total = np.empty((n_c, n_v))
+    terms = np.empty(n_m)
+    for v in range(n_v):
+        skip_col = v % (n_b + 1) - 1
+        for c in range(n_c):
+            for m in range(n_m):
+                used = 0
+                for q in range(n_b):
+                    used += (m >> q) & 1
+                left = 1 if skip_col >= 0 else 0
+                skipped = left == 1 and (m >> skip_col) & 1 > 0
+                value = 0.0 if skipped else f[c, v, m]
+                terms[m] = value * powers[max(n_b - used - left, 0)]
+            total[c, v] = _sum(terms)
+    return total.reshape(n_c, n_a + 1, n_b + 1)
