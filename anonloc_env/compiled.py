@@ -1,5 +1,6 @@
 """Compiled forms of the env's small, hot numpy loops (numba; the optional ``fast`` extra): the
-physics sub-step, odometry, and the neighbour search of small point sets.
+physics sub-step, odometry, the neighbour search of small point sets, and the identifier's
+leave-out sums over the others' matchings.
 
 A physics sub-step of :class:`anonloc_env.world.World` around pymunk's step is a few dozen numpy
 calls on arrays of N robots (the move by the solved velocities, the headings and arena limits,
