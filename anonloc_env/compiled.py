@@ -9,7 +9,7 @@ that agents learn on (3 to 40 robots) numpy's cost per call, not the work, is mo
 These kernels do the same arithmetic, element by element in the same order, in one compiled call
 each, and give the same floats to the bit (``tests/test_compiled.py`` steps worlds both
 ways and compares every pose). numba is optional: without it, or with ``ANONLOC_JIT=0`` in the
-environment, :data:`AVAILABLE` is False and the world runs its numpy code.
+environment, :func:`mode` is None and every caller runs its numpy code.
 
 Bit for bit: numba's ``math.cos``/``math.sin`` call the C library, as numpy's float64 loops do
 here; complex products are written out as numpy computes them, ``(a c - b d) + i (a d + b c)``
@@ -20,8 +20,9 @@ transcendentals once and turns the kernels off where neither form matches. The c
 is not numpy's (``np.abs`` of a complex number and ``hypot`` differ in the last bit), so circles,
 whose separation needs it, keep the numpy pass, and the neighbour list is always built by numpy.
 
-The kernels compile on first use (about four seconds, once per installation: ``cache=True``
-keeps the machine code next to this file), not at import.
+numba is imported, and the kernels compiled, when :func:`mode` is first asked (the first world
+built), not at import: about four seconds once per installation (``cache=True`` keeps the
+machine code next to this file), then about 0.7 s per process to load them at the first step.
 """
 
 from __future__ import annotations
@@ -32,29 +33,22 @@ from typing import Any
 
 import numpy as np
 
-try:  # the optional extra ``fast``
-    import numba
-except ImportError:  # the lowest-pins job has no numba
-    numba = None  # type: ignore[assignment]  # the module or None, tested by AVAILABLE
-
-#: True when the compiled kernels are used: numba is installed and ``ANONLOC_JIT`` is not ``0``.
-AVAILABLE = numba is not None and os.environ.get("ANONLOC_JIT", "1") != "0"
+#: The kernels below, in the order they are compiled (callees first).
+_KERNELS: list[str] = []
 
 
 def _jit(function: Any) -> Any:
-    """``numba.njit(cache=True)`` (compiled at the first call), or the function itself."""
-    if numba is None:
-        return function
-    return numba.njit(cache=True, nogil=True)(function)
+    """Mark ``function`` as a kernel: :func:`mode` replaces it with its compiled form
+    (``numba.njit(cache=True)``) when the kernels are first asked for; until then, and without
+    numba, it stays the plain function, which nothing calls (the callers check :func:`mode`)."""
+    _KERNELS.append(function.__name__)
+    return function
 
 
-def _fma_intrinsic() -> Any:
+def _fma_intrinsic(numba: Any) -> Any:
     """``fma(a, b, c)``: ``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``), for compiled code."""
-    if numba is None:
-        return None
     from llvmlite import ir  # type: ignore[import-untyped]  # llvmlite ships no type hints
     from numba.core import types
-    from numba.extending import intrinsic
 
     def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
         signature = types.float64(types.float64, types.float64, types.float64)
@@ -67,10 +61,12 @@ def _fma_intrinsic() -> Any:
 
         return signature, codegen
 
-    return intrinsic(fma)
+    return numba.extending.intrinsic(fma)
 
 
-_fma: Any = _fma_intrinsic()
+def _fma(a: float, b: float, c: float) -> float:
+    """Replaced by :func:`_fma_intrinsic`'s when the kernels are compiled."""
+    raise RuntimeError("anonloc_env.compiled: the kernels are not compiled (see mode())")
 
 
 def numpy_fuses() -> bool | None:
@@ -344,8 +340,28 @@ def mode() -> bool | None:
     multiply neither form matches); else whether they fuse their complex products, as this
     machine's numpy does (checked once)."""
     if not _MODE:
-        _MODE.append(numpy_fuses() if AVAILABLE and _same_cos_sin() else None)
+        _MODE.append(_start())
     return _MODE[0]
+
+
+def _start() -> bool | None:
+    """Import numba and prepare the kernels (each compiles at its first call, or loads from the
+    cache), if they are wanted and can match numpy; return :func:`mode`'s answer."""
+    if os.environ.get("ANONLOC_JIT", "1") == "0":
+        return None
+    try:  # the optional extra ``fast``; the lowest-pins job has no numba
+        import numba
+        import numba.extending
+    except ImportError:
+        return None
+    fused = numpy_fuses() if _same_cos_sin() else None
+    if fused is None:
+        return None
+    names = globals()
+    names["_fma"] = _fma_intrinsic(numba)
+    for name in _KERNELS:
+        names[name] = numba.njit(cache=True, nogil=True)(names[name])
+    return fused
 
 
 def _same_cos_sin() -> bool:
