@@ -10,6 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from anonloc_env import compiled
+
+#: Up to this many pairs (``len(a) * len(b)``), the compiled search looks at every pair.
+_LOOK_AT_ALL = 4096
+
 
 def expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """Concatenate ``range(s, s + c)`` for every ``(s, c)``, vectorised."""
@@ -40,6 +45,8 @@ def pairs_within(
         return empty
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
+    if len(a) * len(b) <= _LOOK_AT_ALL and compiled.mode() is not None:
+        return compiled.pairs_within(a, b, float(radius))  # the same arrays, one call
     origin = np.minimum(a.min(axis=0), b.min(axis=0)) - radius
     cell_a = np.floor((a - origin) / radius).astype(np.int64)
     cell_b = np.floor((b - origin) / radius).astype(np.int64)

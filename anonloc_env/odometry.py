@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.world import WheelTravel
 
 
@@ -189,6 +190,15 @@ class Odometry:
         if noisy:
             distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
         odo = self.since_picture
+        if compiled.mode() is not None:  # the same floats in one call
+            step_ds, step_dth = np.zeros(self.n), np.zeros(self.n)
+            factors = (distance_factor, turn_factor) if noisy else (step_ds, step_dth)
+            compiled.integrate(
+                odo, motion.forward, motion.turned, *factors, noisy, step_ds, step_dth
+            )
+            if stats:
+                self.stats.add_step(step_ds, step_dth)
+            return
         x, y, phi = odo[:, 0], odo[:, 1], odo[:, 2]  # column views, updated in place
         if stats:
             step_ds = np.zeros(self.n)  # this control step's distance and turn, all sub-steps

@@ -36,10 +36,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 import pymunk
 
+from anonloc_env import compiled
 from anonloc_env.config import RobotConfig
 from anonloc_env.neighbours import expand_ranges
 
@@ -89,6 +91,11 @@ class Separator:
         self._stale = np.float64(SKIN * robot.size / 2.0 / math.sqrt(2.0))
         self._drift = np.float64(CLOSE_MARGIN * robot.size / 2.0 / math.sqrt(2.0))
         self._anchor: np.ndarray | None = None  # positions (x + iy) when the list was built
+        self._anchor_xy = np.zeros((n, 2))  # the same as (N, 2) rows (x, y)
+        # The compiled pass's bounds (compiled.separate).
+        self._params = np.array(
+            [self.half, self.allowed, self.stop, self._margin, self._stale, self._drift]
+        )
         self._pairs = np.zeros((0, 2), dtype=np.intp)
         self.rebuilds = 0
         """How many times the neighbour list was built."""
@@ -100,8 +107,38 @@ class Separator:
         if anchor is None or not _moved(z, anchor) <= self._stale:
             self._pairs = pairs_within_self(z, self._list_reach)
             self._anchor = z.copy()
+            self._anchor_xy = self._anchor.view(np.float64).reshape(-1, 2)
             self.rebuilds += 1
         return self._pairs
+
+    def separate_compiled(
+        self, state: np.ndarray, heading: np.ndarray, low: np.ndarray, high: np.ndarray, fused: bool
+    ) -> None:
+        """:meth:`separate` through :func:`anonloc_env.compiled.separate` (same floats) for
+        the positions in the first two columns of ``state`` ``(N + 1, 7)``, clamped to
+        ``low``/``high`` as ``World._clamp_to_arena`` does; circles go through :meth:`separate`."""
+        xy = state[: self.n, :2]
+        if not self.square:
+            clamp = partial(_clamp, xy, low, high)
+            self.separate(xy, heading, clamp)
+            return
+        z = xy.view(np.complex128)[:, 0]
+        left, check = MAX_PROJECTIONS, True
+        while left > 0:
+            if self._anchor is None:
+                self.neighbours(z)
+                check = False
+            done = compiled.separate(
+                state, self.n, heading, self._pairs, self._anchor_xy, low, high,
+                self._params, left, fused, check,
+            )  # fmt: skip
+            if done < 0:  # the list is stale
+                self._anchor = None
+                continue
+            if done == 0:
+                return
+            left -= done
+            check = True
 
     def separate(self, xy: np.ndarray, heading: np.ndarray, clamp: Callable[[], None]) -> None:
         """Push overlapping robots apart in place, keeping them inside the arena.
@@ -236,6 +273,12 @@ def pairs_within_self(z: np.ndarray, radius: float) -> np.ndarray:
     near = np.abs(z[second] - z[first]) <= radius
     first, second = first[near], second[near]
     return np.column_stack((np.minimum(first, second), np.maximum(first, second)))
+
+
+def _clamp(xy: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    """Positions ``xy`` ``(N, 2)`` clamped in place to ``low`` ``(N, 1)`` and ``high``."""
+    np.maximum(xy, low, out=xy)
+    np.minimum(xy, high, out=xy)
 
 
 def _moved(z: np.ndarray, before: np.ndarray) -> np.float64:

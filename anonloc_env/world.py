@@ -51,6 +51,7 @@ import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
+from anonloc_env import compiled
 from anonloc_env.config import EnvConfig, placement_spacing, substeps_needed
 from anonloc_env.overlap import robot_overlaps, wall_overlaps
 from anonloc_env.separation import SOLID, Separator
@@ -74,15 +75,15 @@ class WheelTravel(NamedTuple):
     """What the wheels did during one control step.
 
     Attributes:
-        forward: one ``(N,)`` array per sub-step: the distance each robot moved along its heading
+        forward: ``(S, N)``, a row per sub-step: the distance each robot moved along its heading
             (m). Sideways motion (being pushed) is not seen by wheel encoders and is left out.
-        turned: one ``(N,)`` array per sub-step: each robot's heading change (rad).
+        turned: ``(S, N)``, a row per sub-step: each robot's heading change (rad).
         contact: ``(N,)`` True where a contact moved the robot off its commanded path (it was
             blocked by a wall or a robot, or pushed): what a bumper switch reports.
     """
 
-    forward: list[np.ndarray]
-    turned: list[np.ndarray]
+    forward: np.ndarray
+    turned: np.ndarray
     contact: np.ndarray
 
 
@@ -225,6 +226,9 @@ class World:
         self._low = np.empty((self.n, 1))
         self._high = np.empty((self.n, 2))
         self._set_headings()
+        self.compiled = compiled.mode()
+        """None: the sub-steps run numpy; else they run :mod:`anonloc_env.compiled`
+        (same floats), whose complex products are fused (True) or not, as numpy's are."""
 
     def _add_walls(self) -> None:
         width, height = self.config.arena_size
@@ -261,12 +265,15 @@ class World:
         speed = v * self._inv_h  # the force that gives ``v`` in one sub-step (mass 1)
         travel = v * h  # the free move along the heading in one sub-step
         turn = w * h
+        if self.compiled is not None:
+            return self._step_compiled(speed, travel, turn, self.compiled)
         z, theta = self._z, self._theta
-        forward, turned = [], []
+        forward = np.empty((self.substeps, self.n))
+        turned = np.empty((self.substeps, self.n))
         # Per robot, the largest gap between a sub-step's move and its command, along and
         # across its heading.
         worst = np.zeros((self.n, 2))
-        for _ in range(self.substeps):
+        for k in range(self.substeps):
             heading = self._heading
             np.multiply(speed, heading, out=self._force)
             self.batch.write()
@@ -281,11 +288,38 @@ class World:
             self.separator.separate(self._xy, self._heading, self._clamp_to_arena)
             # The move in the robot's frame at the start of the sub-step: along + i across.
             moved = (z - start) * heading.conj()
-            forward.append(moved.real)  # wheel encoders see the move along the heading only
-            turned.append(theta - state[:, 2])
+            forward[k] = moved.real  # wheel encoders see the move along the heading only
+            np.subtract(theta, state[:, 2], out=turned[k])
             # Free motion moves exactly by the command; a contact pushes the robot off it.
-            off = moved - travel  # a new array: ``forward`` holds a view of ``moved``
+            off = moved - travel
             np.maximum(worst, np.abs(off.view(np.float64).reshape(-1, 2)), out=worst)
+        self.poses = self._pose_rows.copy()
+        return WheelTravel(forward, turned, worst.max(axis=1) > self._bump_tolerance)
+
+    def _step_compiled(
+        self, speed: np.ndarray, travel: np.ndarray, turn: np.ndarray, fused: bool
+    ) -> WheelTravel:
+        """:meth:`step` with each sub-step's numpy work in three compiled calls (same floats)."""
+        h, n, kernels = self.substep_dt, self.n, compiled
+        forward = np.empty((self.substeps, n))
+        turned = np.empty((self.substeps, n))
+        worst = np.zeros((n, 2))
+        width, height = self._arena
+        for k in range(self.substeps):
+            heading, spare = self._heading, self._spare_heading
+            np.multiply(speed, heading, out=self._force)
+            self.batch.write()
+            self.space.step(h)
+            state = self.batch.read_state()
+            kernels.move(
+                state, self._state, n, h, turn, spare, self._low, self._high,
+                self._half, self._wall_slack, width, height, self._square,
+            )  # fmt: skip
+            self._heading, self._spare_heading = spare, heading
+            self.separator.separate_compiled(self._state, spare, self._low, self._high, fused)
+            kernels.record(
+                state, self._state, n, heading, travel, forward[k], turned[k], worst, fused
+            )
         self.poses = self._pose_rows.copy()
         return WheelTravel(forward, turned, worst.max(axis=1) > self._bump_tolerance)
 

@@ -50,6 +50,11 @@ import numpy as np
 
 import anonloc_env
 
+try:  # the longest episode the env accepts (since the hostile pass of issue 26)
+    from anonloc_env.config import MAX_CYCLES
+except ImportError:  # an older checkout, measured for a before/after
+    MAX_CYCLES = 10**9
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # limit_loop.py sits next to this file
 from limit_loop import LimitLoop
 
@@ -140,7 +145,7 @@ def anonloc_blocks(n: int) -> dict[str, Block]:
         arena_size=(side, side),
         dt=DT,
         picture_interval=DT * STEPS_PER_PICTURE,
-        max_cycles=10**9,
+        max_cycles=MAX_CYCLES,
         # The energy reward: the default information-gain reward runs the Bayesian identifier
         # at every picture, timed on its own in bench_identify.py.
         reward_fn=anonloc_env.EnergyCost(),
@@ -174,7 +179,7 @@ def reward_run(n: int, reward_fn: Any, seed: int = SEED) -> tuple[float, float]:
     included), and the worst single step, under ``reward_fn``, on seeded random commands."""
     side = arena_side(n)
     env = anonloc_env.parallel_env(
-        n_robots=n, arena_size=(side, side), max_cycles=10**9, reward_fn=reward_fn
+        n_robots=n, arena_size=(side, side), max_cycles=MAX_CYCLES, reward_fn=reward_fn
     )
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)

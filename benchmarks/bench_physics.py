@@ -45,6 +45,11 @@ import pymunk.batch as pmb
 import anonloc_env
 from anonloc_env.config import RobotConfig
 
+try:  # the longest episode the env accepts (since the hostile pass of issue 26)
+    from anonloc_env.config import MAX_CYCLES
+except ImportError:  # an older checkout, measured for a before/after
+    MAX_CYCLES = 10**9
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench_env.py sits next to this file
 from bench_env import Block, clock, env_block, import_error, machine, mpe2_block, pin, vmas_block
 from limit_loop import BareObservations
@@ -111,7 +116,7 @@ def env_and_bare(n: int, density: float) -> dict[str, Block]:
     env = anonloc_env.parallel_env(
         n_robots=n,
         arena_size=(side, side),
-        max_cycles=10**9,
+        max_cycles=MAX_CYCLES,
         reward_fn=anonloc_env.EnergyCost(),
     )
     env.reset(seed=SEED)

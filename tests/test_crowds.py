@@ -13,6 +13,7 @@ import pytest
 import anonloc_env
 import baselines
 from anonloc_env.identify import SensorModel
+from anonloc_env.identify.contact import CONTACT_BREAK, break_length
 from baselines.excitations import GapSeeking, GapSettings
 from baselines.runner import run_episode
 from benchmarks.crowds import THRESHOLD, load_recorded, replay, without_contact_model
@@ -68,6 +69,28 @@ def test_contact_model_fields_are_checked() -> None:
         dataclasses.replace(model, crowd_push_share=1.5)
     with pytest.raises(ValueError, match="contact_break"):
         dataclasses.replace(model, contact_break=-1.0)
+
+
+def test_tracks_break_sooner_in_denser_crowds() -> None:
+    """100 m up to one robot per m^2 (open space as it was), then in proportion to the density;
+    ``from_config`` takes the density of the arena."""
+    assert break_length(0.25) == break_length(1.0) == CONTACT_BREAK
+    assert break_length(4.0) == pytest.approx(CONTACT_BREAK / 4.0)
+    crowd = SensorModel.from_config(anonloc_env.make_config("crowd"))
+    assert crowd.contact_break == pytest.approx(CONTACT_BREAK / 4.0)
+    with pytest.raises(ValueError, match="density"):
+        break_length(0.0)
+
+
+def test_escape_turns_at_the_full_rate_both_ways() -> None:
+    """An unsure ``gaps`` robot reverses out of a bump turning at +-turn, each way about half the
+    time (seeded: 400 draws, within 4 standard deviations of 200)."""
+    escape = GapSeeking().backoff
+    escape.reset([np.random.default_rng(s) for s in range(400)])
+    rates = np.array(escape.turn_rates(np.arange(400)))
+    turn = GapSettings().turn
+    assert set(np.abs(rates)) == {turn}
+    assert abs(int((rates > 0).sum()) - 200) <= 40
 
 
 def _commands(seed: int, n: int = 20, steps: int = 120) -> np.ndarray:

@@ -41,9 +41,21 @@ from anonloc_env.odometry import Interval
 #: The share of the push covariance for a pressed robot: a push spread evenly up to its bound.
 CROWD_PUSH_SHARE = 1.0
 #: The contact bound (m, summed over an interval) over which a pressed robot's track breaks
-#: with probability ``1 - 1/e``; a robot pressed through a whole interval at top speed has a
-#: bound of about 0.4 m.
+#: with probability ``1 - 1/e`` at one robot per m^2 or fewer (see :func:`break_length`); a
+#: robot pressed through a whole interval at top speed has a bound of about 0.4 m.
 CONTACT_BREAK = 100.0
+
+
+def break_length(density: float) -> float:
+    """The contact bound (m) over which a pressed robot's track breaks with probability
+    ``1 - 1/e`` among ``density`` robots per m^2: :data:`CONTACT_BREAK` up to one robot per m^2,
+    shorter in proportion to the density above it (a pressed robot has that many more neighbours
+    to be mixed up with). Robots jammed together for tens of intervals at 4 and 6 per m^2 were
+    taken for one another, or for a far robot jammed the same way once their own track had been
+    pruned, at ``CONTACT_BREAK`` (``docs/crowds.md``)."""
+    if not density > 0.0:
+        raise ValueError(f"density must be > 0 robots per m^2, got {density}")
+    return CONTACT_BREAK / max(1.0, density)
 
 
 def pressed_interval(

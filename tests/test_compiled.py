@@ -1,0 +1,179 @@
+"""The compiled kernels (numba) give the same floats as the numpy code they replace, to the bit:
+the physics sub-step, odometry, the neighbour search, and a whole belief-env episode."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from anonloc_env import compiled, make_config
+from anonloc_env.config import RobotConfig
+from anonloc_env.env import AnonLocEnv
+from anonloc_env.neighbours import pairs_within
+from anonloc_env.odometry import Odometry
+from anonloc_env.rewards import EnergyCost
+from anonloc_env.separation import Separator
+from anonloc_env.world import WheelTravel
+
+pytest.importorskip("numba")
+pytestmark = pytest.mark.skipif(
+    compiled.mode() is None, reason="kernels off (ANONLOC_JIT=0 or an unknown numpy)"
+)
+
+
+def _episode(use_kernels: bool, n: int, side: float, shape: str, steps: int, seed: int) -> list:
+    """Every step's poses, wheel travel and bumpers of a crowded episode of random actions."""
+    config = make_config(n_robots=n, arena_size=(side, side), robot={"shape": shape})
+    env = AnonLocEnv(config, reward_fn=EnergyCost())
+    env.reset(seed=seed)
+    world = env.world
+    assert world.compiled is not None
+    if not use_kernels:
+        world.compiled = None
+    rng = np.random.default_rng(seed)
+    record = []
+    for _ in range(steps):
+        v = rng.uniform(-1.0, 1.0, n) * config.robot.v_max
+        w = rng.uniform(-1.0, 1.0, n) * config.robot.omega_max
+        travel = world.step(v, w)
+        record.append((world.poses.copy(), np.array(travel.forward), np.array(travel.turned)))
+        record.append((travel.contact.copy(),))
+    return record
+
+
+@pytest.mark.parametrize(
+    ("n", "side", "shape"), [(24, 2.2, "square"), (80, 4.0, "square"), (30, 2.6, "circle")]
+)
+def test_a_crowded_episode_is_the_same_to_the_bit(n: int, side: float, shape: str) -> None:
+    """Robots packed at 5 per m^2 with random commands (contacts, pushes, rebuilds of the
+    neighbour list, projections): poses, wheel travel and bumpers equal at every step."""
+    fast = _episode(True, n, side, shape, 150, seed=n)
+    plain = _episode(False, n, side, shape, 150, seed=n)
+    assert any(row[0].any() for row in fast if len(row) == 1)  # some bumpers fired
+    for a, b in zip(fast, plain, strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_a_pile_is_separated_as_numpy_separates_it() -> None:
+    """60 squares dropped at random on a 1.5 m square (deep overlaps, many projections, pushes
+    into pairs left out): the compiled pass leaves every robot where numpy's does."""
+    robot = RobotConfig()
+    rng = np.random.default_rng(7)
+    n = 60
+    poses = np.column_stack([rng.uniform(0, 1.5, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+    heading = np.exp(1j * poses[:, 2])
+    low, high = np.full((n, 1), -1e9), np.full((n, 2), 1e9)
+    state = np.zeros((n + 1, 7))
+    state[:n, :2] = poses[:, :2]
+    numpy_side, compiled_side = Separator(robot, n), Separator(robot, n)
+    xy = np.ascontiguousarray(poses[:, :2])
+    numpy_side.separate(xy, heading, lambda: None)
+    compiled_side.separate_compiled(state, heading, low, high, bool(compiled.mode()))
+    assert np.abs(xy - poses[:, :2]).max() > 0.1 * robot.size  # robots were pushed
+    np.testing.assert_array_equal(state[:n, :2], xy)
+    assert compiled_side.rebuilds == numpy_side.rebuilds
+
+
+def test_the_fused_products_match_numpy() -> None:
+    """The kernels' complex product is numpy's on this machine (fused or not, as detected)."""
+    assert compiled.numpy_fuses() is not None
+
+
+def test_anonloc_jit_0_switches_the_kernels_off() -> None:
+    code = "from anonloc_env import compiled as k; print(k.mode())"
+    env = {**os.environ, "ANONLOC_JIT": "0"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "None"
+
+
+@pytest.fixture
+def numpy_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every kernel off, as without numba (worlds built afterwards run numpy too)."""
+    monkeypatch.setattr(compiled, "_MODE", [None])
+
+
+def _pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarray, ...]:
+    assert compiled.mode() is not None
+    return pairs_within(a, b, radius)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_neighbour_search_finds_the_same_pairs(
+    seed: int, request: pytest.FixtureRequest
+) -> None:
+    """Random point sets (on a grid for seeds 0 and 1: distances of exactly the radius, points on
+    cell borders, duplicates) and radii: the same pairs, order and distances as the grid search."""
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(1, 60)), int(rng.integers(1, 60))
+    if seed < 2:
+        a, b = rng.integers(0, 6, (n, 2)).astype(float), rng.integers(0, 6, (m, 2)).astype(float)
+        radius = 1.0
+    else:
+        a, b = rng.uniform(0, 10, (n, 2)), rng.uniform(0, 10, (m, 2))
+        radius = float(rng.uniform(0.1, 3.0))
+    fast = _pairs(a, b, radius)
+    request.getfixturevalue("numpy_only")
+    plain = pairs_within(a, b, radius)
+    assert len(plain[0]) > 0
+    for x, y in zip(fast, plain, strict=True):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.05])
+def test_odometry_integrates_the_same(noise: float, request: pytest.FixtureRequest) -> None:
+    """Dead reckoning of 20 steps of wheel travel (3 sub-steps, with and without noise)."""
+    rng = np.random.default_rng(3)
+    steps = [
+        WheelTravel(rng.uniform(0, 0.01, (3, 9)), rng.normal(0, 0.05, (3, 9)), rng.random(9) < 0.3)
+        for _ in range(20)
+    ]
+    results = []
+    for use_kernels in (True, False):
+        if not use_kernels:
+            request.getfixturevalue("numpy_only")
+        odometry = Odometry(9, noise, v_max=0.5, dt=0.1)
+        draws = np.random.default_rng(4)
+        for motion in steps:
+            odometry.integrate(motion, draws, np.full(9, 0.3))
+        interval = odometry.mark_picture()
+        results.append((interval.d, interval.dphi, interval.path, interval.sum_ds2))
+    for x, y in zip(*results, strict=True):
+        np.testing.assert_array_equal(x, y)
+
+
+def _belief_episode() -> list[np.ndarray]:
+    """The belief env (N = 12, 8 % misses and 2 false positives, 2 copies, random candidate
+    choices): every decision's observations, rewards and beliefs."""
+    from agents.vec import AnonLocVecEnv
+
+    config = make_config(n_robots=12, camera={"p_miss": 0.08, "false_positives": 2.0})
+    vec = AnonLocVecEnv(config, n_envs=2)
+    vec.seed(5)
+    first = vec.reset()
+    out = [first[key] for key in sorted(first)]
+    rng = np.random.default_rng(5)
+    for _ in range(12):
+        vec.step_async(rng.integers(0, 8, vec.num_envs))
+        obs, rewards, _, _ = vec.step_wait()
+        out.extend([*(obs[key] for key in sorted(obs)), rewards])
+        out.extend(crew.localizer.belief for crew in vec.crews)
+    return out
+
+
+def test_a_belief_env_episode_is_the_same_to_the_bit(request: pytest.FixtureRequest) -> None:
+    """What ``anonloc train`` learns on, kernels on and off: every observation, reward and
+    belief equal."""
+    pytest.importorskip("stable_baselines3")
+    fast = _belief_episode()
+    request.getfixturevalue("numpy_only")
+    plain = _belief_episode()
+    for x, y in zip(fast, plain, strict=True):
+        np.testing.assert_array_equal(x, y)
