@@ -394,7 +394,9 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
                     callback=CallbackList(callbacks),
                     reset_num_timesteps=checkpoint is None,
                 )
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as error:
+            if not _is_interrupt(error):
+                raise
             saved = save_atomic(model, checkpoint_path(directory, int(model.num_timesteps)))
             save_atomic(model, directory / "agent.zip")
             raise Interrupted(directory, saved, int(model.num_timesteps)) from None
@@ -409,6 +411,19 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     return TrainResult(
         directory, agent, int(model.num_timesteps), time.perf_counter() - start, comparison
     )
+
+
+def _is_interrupt(error: BaseException) -> bool:
+    """Whether ``error`` is Ctrl-C or SIGTERM: a ``KeyboardInterrupt``, or the ``SystemError``
+    a compiled function (numba's dispatcher, the ``fast`` extra) raises when the signal's
+    handler raised inside it ("returned a result with an exception set", the interrupt
+    chained as its cause)."""
+    seen: BaseException | None = error
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    return False
 
 
 def start_from_uniform(model: Any) -> None:
