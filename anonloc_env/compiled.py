@@ -1,5 +1,6 @@
 """Compiled forms of the env's small, hot numpy loops (numba; the optional ``fast`` extra): the
-physics sub-step, odometry, and the neighbour search of small point sets.
+physics sub-step, odometry, the neighbour search of small point sets, and the identifier's
+leave-out sums over the others' matchings.
 
 A physics sub-step of :class:`anonloc_env.world.World` around pymunk's step is a few dozen numpy
 calls on arrays of N robots (the move by the solved velocities, the headings and arena limits,
@@ -8,7 +9,7 @@ that agents learn on (3 to 40 robots) numpy's cost per call, not the work, is mo
 These kernels do the same arithmetic, element by element in the same order, in one compiled call
 each, and give the same floats to the bit (``tests/test_compiled.py`` steps worlds both
 ways and compares every pose). numba is optional: without it, or with ``ANONLOC_JIT=0`` in the
-environment, :data:`AVAILABLE` is False and the world runs its numpy code.
+environment, :func:`mode` is None and every caller runs its numpy code.
 
 Bit for bit: numba's ``math.cos``/``math.sin`` call the C library, as numpy's float64 loops do
 here; complex products are written out as numpy computes them, ``(a c - b d) + i (a d + b c)``
@@ -19,8 +20,9 @@ transcendentals once and turns the kernels off where neither form matches. The c
 is not numpy's (``np.abs`` of a complex number and ``hypot`` differ in the last bit), so circles,
 whose separation needs it, keep the numpy pass, and the neighbour list is always built by numpy.
 
-The kernels compile on first use (about four seconds, once per installation: ``cache=True``
-keeps the machine code next to this file), not at import.
+numba is imported, and the kernels compiled, when :func:`mode` is first asked (the first world
+built), not at import: about four seconds once per installation (``cache=True`` keeps the
+machine code next to this file), then about 0.7 s per process to load them at the first step.
 """
 
 from __future__ import annotations
@@ -31,29 +33,22 @@ from typing import Any
 
 import numpy as np
 
-try:  # the optional extra ``fast``
-    import numba
-except ImportError:  # the lowest-pins job has no numba
-    numba = None  # type: ignore[assignment]  # the module or None, tested by AVAILABLE
-
-#: True when the compiled kernels are used: numba is installed and ``ANONLOC_JIT`` is not ``0``.
-AVAILABLE = numba is not None and os.environ.get("ANONLOC_JIT", "1") != "0"
+#: The kernels below, in the order they are compiled (callees first).
+_KERNELS: list[str] = []
 
 
 def _jit(function: Any) -> Any:
-    """``numba.njit(cache=True)`` (compiled at the first call), or the function itself."""
-    if numba is None:
-        return function
-    return numba.njit(cache=True, nogil=True)(function)
+    """Mark ``function`` as a kernel: :func:`mode` replaces it with its compiled form
+    (``numba.njit(cache=True)``) when the kernels are first asked for; until then, and without
+    numba, it stays the plain function, which nothing calls (the callers check :func:`mode`)."""
+    _KERNELS.append(function.__name__)
+    return function
 
 
-def _fma_intrinsic() -> Any:
+def _fma_intrinsic(numba: Any) -> Any:
     """``fma(a, b, c)``: ``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``), for compiled code."""
-    if numba is None:
-        return None
     from llvmlite import ir  # type: ignore[import-untyped]  # llvmlite ships no type hints
     from numba.core import types
-    from numba.extending import intrinsic
 
     def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
         signature = types.float64(types.float64, types.float64, types.float64)
@@ -66,10 +61,12 @@ def _fma_intrinsic() -> Any:
 
         return signature, codegen
 
-    return intrinsic(fma)
+    return numba.extending.intrinsic(fma)
 
 
-_fma: Any = _fma_intrinsic()
+def _fma(a: float, b: float, c: float) -> float:
+    """Replaced by :func:`_fma_intrinsic`'s when the kernels are compiled."""
+    raise RuntimeError("anonloc_env.compiled: the kernels are not compiled (see mode())")
 
 
 def numpy_fuses() -> bool | None:
@@ -343,8 +340,28 @@ def mode() -> bool | None:
     multiply neither form matches); else whether they fuse their complex products, as this
     machine's numpy does (checked once)."""
     if not _MODE:
-        _MODE.append(numpy_fuses() if AVAILABLE and _same_cos_sin() else None)
+        _MODE.append(_start())
     return _MODE[0]
+
+
+def _start() -> bool | None:
+    """Import numba and prepare the kernels (each compiles at its first call, or loads from the
+    cache), if they are wanted and can match numpy; return :func:`mode`'s answer."""
+    if os.environ.get("ANONLOC_JIT", "1") == "0":
+        return None
+    try:  # the optional extra ``fast``; the lowest-pins job has no numba
+        import numba
+        import numba.extending
+    except ImportError:
+        return None
+    fused = numpy_fuses() if _same_cos_sin() else None
+    if fused is None:
+        return None
+    names = globals()
+    names["_fma"] = _fma_intrinsic(numba)
+    for name in _KERNELS:
+        names[name] = numba.njit(cache=True, nogil=True)(names[name])
+    return fused
 
 
 def _same_cos_sin() -> bool:
@@ -414,3 +431,84 @@ def pairs_within(
                 found_i[count], found_j[count], found_d[count] = i, j, dist
                 count += 1
     return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
+
+
+@_jit
+def _block_sum(a: np.ndarray, start: int, n: int) -> float:
+    """numpy's pairwise sum of ``a[start:start + n]``, ``n <= 128``: in order below 8 items,
+    else eight running sums combined as a tree, then the rest in order."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[start + i]
+        return res
+    r = a[start : start + 8].copy()
+    i, end = 8, n - n % 8
+    while i < end:
+        for k in range(8):
+            r[k] += a[start + i + k]
+        i += 8
+    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while i < n:
+        res += a[start + i]
+        i += 1
+    return res
+
+
+@_jit
+def _sum(a: np.ndarray) -> float:
+    """``a.sum()`` as numpy adds a row of at most 256 items: blocks of 128, halves above."""
+    n = len(a)
+    if n <= 128:
+        return _block_sum(a, 0, n)
+    half = n // 2
+    half -= half % 8
+    return _block_sum(a, 0, half) + _block_sum(a, half, n - half)
+
+
+@_jit
+def leave_out_sums(w: np.ndarray, w_end: float, powers: np.ndarray) -> np.ndarray:
+    """``identify.others._leave_out_sums`` (its dynamic programme over the sets of used columns,
+    every leave-out at once) for ``w`` ``(C, rows, columns)``, at most 8 columns; ``powers``
+    ``(columns + 1,)``: ``w_new ** k`` as numpy computes it. ``(C, rows + 1, columns + 1)``."""
+    n_c, n_a, n_b = w.shape
+    n_v, n_m = (n_a + 1) * (n_b + 1), 1 << n_b
+    f = np.zeros((n_c, n_v, n_m))
+    f[:, :, 0] = 1.0
+    g = np.empty_like(f)
+    for r in range(n_a):
+        for v in range(n_v):
+            active = v // (n_b + 1) - 1 != r
+            for c in range(n_c):
+                for m in range(n_m):
+                    g[c, v, m] = f[c, v, m] * w_end if active else f[c, v, m]
+        for q in range(n_b):
+            edge = False
+            for c in range(n_c):
+                edge |= w[c, r, q] != 0.0
+            if not edge:
+                continue
+            bit = 1 << q
+            for v in range(n_v):
+                on = v // (n_b + 1) - 1 != r and v % (n_b + 1) - 1 != q
+                for c in range(n_c):
+                    weight = w[c, r, q] * (1.0 if on else 0.0)
+                    for m in range(n_m):
+                        if m & bit:
+                            g[c, v, m] += f[c, v, m ^ bit] * weight
+        f, g = g, f
+    total = np.empty((n_c, n_v))
+    terms = np.empty(n_m)
+    for v in range(n_v):
+        skip_col = v % (n_b + 1) - 1
+        for c in range(n_c):
+            for m in range(n_m):
+                used = 0
+                for q in range(n_b):
+                    used += (m >> q) & 1
+                left = 1 if skip_col >= 0 else 0
+                skipped = left == 1 and (m >> skip_col) & 1 > 0
+                value = 0.0 if skipped else f[c, v, m]
+                terms[m] = value * powers[max(n_b - used - left, 0)]
+            total[c, v] = _sum(terms)
+    return total.reshape(n_c, n_a + 1, n_b + 1)

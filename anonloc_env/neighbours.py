@@ -46,7 +46,10 @@ def pairs_within(
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     if len(a) * len(b) <= _LOOK_AT_ALL and compiled.mode() is not None:
-        return compiled.pairs_within(a, b, float(radius))  # the same arrays, one call
+        # The same arrays in one call (contiguous inputs: one compiled form for every caller).
+        return compiled.pairs_within(
+            np.ascontiguousarray(a), np.ascontiguousarray(b), float(radius)
+        )
     origin = np.minimum(a.min(axis=0), b.min(axis=0)) - radius
     cell_a = np.floor((a - origin) / radius).astype(np.int64)
     cell_b = np.floor((b - origin) / radius).astype(np.int64)

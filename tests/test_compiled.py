@@ -177,3 +177,25 @@ def test_a_belief_env_episode_is_the_same_to_the_bit(request: pytest.FixtureRequ
     plain = _belief_episode()
     for x, y in zip(fast, plain, strict=True):
         np.testing.assert_array_equal(x, y)
+
+
+def test_the_leave_out_sums_are_numpys(request: pytest.FixtureRequest) -> None:
+    """``identify.others._leave_out_sums`` (the others' matchings, every row and column left
+    out in turn) on 120 random components of 1 to 5 copies, up to 8 rows and 8 columns (256
+    column sets: numpy's pairwise sum splits them), weights over six orders of magnitude with
+    missing edges."""
+    from anonloc_env.identify.others import _leave_out_sums
+
+    rng = np.random.default_rng(11)
+    cases = []
+    for _ in range(120):
+        n_c, n_a, n_b = (int(x) for x in rng.integers(1, [6, 9, 9]))
+        n_a = min(n_a, max(1, 24 // n_b))
+        edges = rng.uniform(0.0, 3.0, (n_c, n_a, n_b)) * (rng.random((n_c, n_a, n_b)) < 0.6)
+        w = edges * 10 ** rng.uniform(-3.0, 3.0)
+        cases.append((w, float(rng.uniform(0.01, 1.0)), float(rng.uniform(1e-4, 2.0))))
+    assert any(w.shape[2] == 8 for w, _, _ in cases)
+    fast = [_leave_out_sums(*case) for case in cases]
+    request.getfixturevalue("numpy_only")
+    for case, got in zip(cases, fast, strict=True):
+        np.testing.assert_array_equal(got, _leave_out_sums(*case))

@@ -33,8 +33,8 @@ unknown to the others but bounded and of zero mean over many robots. So, at each
 
 Its error is what the robots' unknown displacements leave: the fit's posterior spread, at each
 picture, from its own residuals, widened by the measured :data:`ERROR_FACTOR`
-(:attr:`Registration.error`). The identifier adds it to that
-picture's pixel noise (:attr:`Registration.pixel_var`), so that a picture registered badly (few
+(``Registration.error``). The identifier adds it to that
+picture's pixel noise (``Registration.pixel_var``), so that a picture registered badly (few
 robots in view, scattered displacements) weighs less; the sensor model's nominal figure
 (:func:`registered_pixel_noise`, what the agent's candidate predictions and the corrected
 localizers read) is a bound from the config. With ground landmarks the detection source

@@ -66,6 +66,7 @@ from functools import cached_property
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.identify.model import SensorModel
 from anonloc_env.neighbours import pairs_within
 
@@ -427,6 +428,9 @@ def _leave_out_sums(w: np.ndarray, w_end: float, w_new: float) -> np.ndarray:
     once: a left-out row adds neither ``w_end`` nor edges, a left-out column takes no edge and
     counts for no ``w_new``."""
     n_c, n_a, n_b = w.shape
+    if n_b <= 8 and compiled.mode() is not None:  # the same floats, one call
+        powers = w_new ** np.arange(n_b + 1)
+        return compiled.leave_out_sums(np.ascontiguousarray(w, np.float64), float(w_end), powers)
     skip_row = np.repeat(np.arange(-1, n_a), n_b + 1)  # one variant per (row, column) left out
     skip_col = np.tile(np.arange(-1, n_b), n_a + 1)
     masks = np.arange(1 << n_b)
