@@ -18,7 +18,8 @@ decisions per second, and saves the curve as a PNG (``--plot``, default
 ``docs/assets/rllib-curve.png``; needs matplotlib). The first iteration's policy is nearly
 uniform over the candidates (entropy log 8 = 2.08): the curve starts at random choice. Beside
 the curve, the return of two fixed choices on ``--reference-episodes`` other seeds: a uniform
-draw, and greedy's (the candidate with the smallest predicted entropy).
+draw, and greedy's (the candidate with the smallest predicted entropy). ``--export PATH`` saves
+the trained agent as an ``agent.zip`` (``agents.rllib.export_agent``) for ``anonloc eval``.
 """
 
 from __future__ import annotations
@@ -31,7 +32,13 @@ from pathlib import Path
 import numpy as np
 
 from agents.pettingzoo import BeliefParallelEnv
-from agents.rllib import IterationMetrics, PPOSettings, make_ppo_config, train_rllib
+from agents.rllib import (
+    IterationMetrics,
+    PPOSettings,
+    export_agent,
+    make_ppo_config,
+    train_rllib,
+)
 from anonloc_env import EnvConfig, make_config
 
 #: Evaluation seeds of the reference choices start here (RLlib's env runners draw their own).
@@ -109,6 +116,9 @@ def main() -> None:
     parser.add_argument("--reference-episodes", type=int, default=12)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--plot", type=Path, default=Path("docs/assets/rllib-curve.png"))
+    parser.add_argument(
+        "--export", type=Path, default=None, help="save the trained agent here (an agent.zip)"
+    )
     args = parser.parse_args()
 
     # The free-motion condition of docs/agents.md: one robot per square metre, 1 px of noise, no
@@ -129,9 +139,15 @@ def main() -> None:
         hidden=args.hidden,
     )
     print(f"N={args.robots}, {settings}, episodes of {args.max_cycles} steps, {args.cpus} CPUs")
+    checkpoint = None if args.export is None else str(args.export.with_suffix(".rllib"))
     metrics = train_rllib(
-        make_ppo_config(config, settings, seed=args.seed), args.iterations, num_cpus=args.cpus
+        make_ppo_config(config, settings, seed=args.seed),
+        args.iterations,
+        checkpoint_dir=checkpoint,
+        num_cpus=args.cpus,
     )
+    if args.export is not None and checkpoint is not None:
+        print(f"agent saved to {export_agent(checkpoint, args.export)}")
     print(
         "\n| iteration | robot decisions | return per robot | policy loss | vf loss | entropy | s |"
     )
