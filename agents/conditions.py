@@ -110,3 +110,26 @@ def training_scenarios(
     """``copies`` scenarios drawn from ``seed`` (one per env copy of a training run)."""
     rng = np.random.default_rng([seed, 0xC0DE])
     return [draw_scenario(rng, ranges) for _ in range(copies)]
+
+
+#: The validation condition's robots: a training N, none of the evaluation conditions'.
+VALIDATION_ROBOTS = 14
+#: Validation episodes are seeded from here up (never a training or an evaluation seed: the
+#: evaluation seeds of ``benchmarks/agent_eval.py`` start at 100000 and stay below this).
+VALIDATION_SEEDS = 900_000
+
+
+def validation_scenario(
+    condition: str = "free", budget: float = 0.2, pictures: int = 20
+) -> Scenario:
+    """The validation condition of training runs and searches: :data:`VALIDATION_ROBOTS` robots
+    at one per square metre, 1 px of noise, no headings, ``pictures`` pictures, in
+    ``condition`` (``free`` or ``swarm`` with deviation ``budget``)."""
+    side = VALIDATION_ROBOTS**0.5
+    config = anonloc_env.make_config(
+        n_robots=VALIDATION_ROBOTS,
+        arena_size=(side, side),
+        camera={"pixel_noise": 1.0, "orientation": False},
+        max_cycles=round(pictures / 0.05) + 1,
+    )
+    return Scenario(config, condition, budget)

@@ -29,6 +29,8 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
 from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES
+from agents.linear_terms import LINEAR_TERMS, linear_terms
+from agents.spec import SCORERS
 
 
 def _mlp(sizes: list[int], last_activation: bool = True) -> nn.Sequential:
@@ -74,6 +76,28 @@ class CandidateScorer(nn.Module):
         return logits, value
 
 
+class LinearScorer(nn.Module):
+    """Logits linear in the named terms of :mod:`agents.linear_terms` (one weight each, zero at
+    the start: ``uniform``), and the value of the robot's state from its context.
+
+    Args:
+        hidden: width of the value network.
+        context_features: features of the context.
+    """
+
+    def __init__(self, hidden: int = 64, context_features: int = CONTEXT_FEATURES) -> None:
+        super().__init__()
+        self.weights = nn.Parameter(torch.zeros(len(LINEAR_TERMS)))
+        self.value = _mlp([context_features, hidden, 1], last_activation=False)
+
+    def forward(
+        self, candidates: torch.Tensor, context: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(logits (B, C), value (B,))`` from ``candidates (B, C, F)`` and ``context (B, X)``."""
+        logits = linear_terms(candidates, context, torch.stack) @ self.weights
+        return logits, self.value(context).squeeze(-1)
+
+
 class CandidatePolicy(ActorCriticPolicy):
     """:class:`CandidateScorer` as an SB3 actor-critic over ``Discrete(C)`` (which candidate).
 
@@ -82,6 +106,7 @@ class CandidatePolicy(ActorCriticPolicy):
         action_space: ``agents.spec.AgentSpec.action_space()``.
         lr_schedule: SB3's learning-rate schedule.
         hidden: width of the scorer's encodings.
+        scorer: ``deep_sets`` (:class:`CandidateScorer`) or ``linear`` (:class:`LinearScorer`).
         spec: the agent's spec as JSON (``agents.spec.AgentSpec.to_json``), kept in
             ``policy_kwargs`` so that it is saved with the model and checked when it is loaded
             (``agents.spec.check_saved``); None for a policy without one.
@@ -95,15 +120,20 @@ class CandidatePolicy(ActorCriticPolicy):
         lr_schedule: Any,
         hidden: int = 64,
         spec: dict[str, Any] | None = None,
+        scorer: str = "deep_sets",
         **kwargs: Any,
     ) -> None:
+        if scorer not in SCORERS:
+            raise ValueError(f"scorer must be one of {SCORERS}, got {scorer!r}")
         self.hidden = hidden
+        self.scorer_kind = scorer
         self.spec = spec
         kwargs.pop("net_arch", None)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=[], **kwargs)
 
     def _build(self, lr_schedule: Any) -> None:
-        self.scorer = CandidateScorer(self.hidden)
+        kind = LinearScorer if self.scorer_kind == "linear" else CandidateScorer
+        self.scorer: CandidateScorer | LinearScorer = kind(self.hidden)
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]  # SB3 types it loosely
             self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
         )
@@ -112,6 +142,7 @@ class CandidatePolicy(ActorCriticPolicy):
         data = super()._get_constructor_parameters()
         data["hidden"] = self.hidden
         data["spec"] = self.spec
+        data["scorer"] = self.scorer_kind
         return data
 
     def _evaluate(self, obs: Any) -> tuple[Distribution, torch.Tensor]:

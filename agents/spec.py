@@ -42,6 +42,7 @@ from agents.candidate_features import (
     Feature,
     information,
 )
+from agents.linear_terms import LINEAR_TERMS
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
 
@@ -49,6 +50,9 @@ from baselines.excitations import Excitation, SwarmDuty
 #: deviation from a shared command stream) or ``mixed`` (training across drawn scenarios; a
 #: ``mixed`` agent runs ``free`` unless told otherwise).
 CONDITIONS = ("free", "swarm", "mixed")
+#: The policy networks an agent can have (``agents.features``; named here, where torch is not
+#: imported).
+SCORERS = ("deep_sets", "linear")
 #: The identity terms of :class:`Reward`.
 IDENTITY_TERMS = ("log_belief", "information", "team")
 #: The identity term of the ``log_belief`` and ``team`` rewards is floored here (nats: log 1e-3 =
@@ -116,6 +120,10 @@ class AgentSpec:
         condition: ``free``, ``swarm`` or ``mixed`` (:data:`CONDITIONS`).
         budget: on swarm duty, the largest deviation as a fraction of ``v_max`` and
             ``omega_max``, in [0, 1].
+        scorer: the policy's network: ``deep_sets`` (``agents.features.CandidateScorer``) or
+            ``linear`` (``agents.features.LinearScorer``, one weight per term).
+        terms: the linear scorer's terms by name and meaning
+            (:data:`agents.linear_terms.LINEAR_TERMS`); empty for ``deep_sets``.
     """
 
     candidates: int = CANDIDATES
@@ -125,12 +133,17 @@ class AgentSpec:
     reward: Reward = field(default_factory=Reward)
     condition: str = "free"
     budget: float = 0.2
+    scorer: str = "deep_sets"
+    terms: tuple[Feature, ...] = ()
 
     def __post_init__(self) -> None:
         check_number("candidates", self.candidates, 1, 1024, integer=True)
         check_choice("condition", self.condition, CONDITIONS)
         check_number("budget", self.budget, 0.0, 1.0)
-        for name in ("candidate_features", "context_features"):
+        check_choice("scorer", self.scorer, SCORERS)
+        if (self.scorer == "linear") != bool(self.terms):
+            raise ValueError("terms must be given for the linear scorer, and only for it")
+        for name in ("candidate_features", "context_features", "terms"):
             names = [f.name for f in getattr(self, name)]
             if len(set(names)) != len(names):
                 raise ValueError(f"{name} must have distinct names, got {names}")
@@ -171,7 +184,7 @@ class AgentSpec:
         """
         try:
             values = dict(data)
-            for key in ("candidate_features", "context_features"):
+            for key in ("candidate_features", "context_features", "terms"):
                 if key in values:
                     values[key] = tuple(Feature(**f) for f in values[key])
             if "reward" in values:
@@ -189,7 +202,9 @@ class AgentSpec:
             out.append(f"observation layout {other.layout}, this anonloc's is {self.layout}")
         if self.candidates != other.candidates:
             out.append(f"{other.candidates} candidates, this spec has {self.candidates}")
-        for group in ("candidate_features", "context_features"):
+        if self.scorer != other.scorer:
+            out.append(f"scorer {other.scorer!r}, this spec has {self.scorer!r}")
+        for group in ("candidate_features", "context_features", "terms"):
             mine, theirs = getattr(self, group), getattr(other, group)
             for i in range(max(len(mine), len(theirs))):
                 a = mine[i] if i < len(mine) else None
@@ -199,8 +214,8 @@ class AgentSpec:
                 if a is None or b is None:
                     extra = a or b
                     assert extra is not None
-                    side = "saved agent" if a is None else "this anonloc"
-                    out.append(f"{group}[{i}] {extra.name!r} is only in the {side}")
+                    side = "the saved agent" if a is None else "this anonloc"
+                    out.append(f"{group}[{i}] {extra.name!r} is only in {side}")
                 elif a.name != b.name:
                     out.append(f"{group}[{i}] is {b.name!r} in the saved agent, {a.name!r} here")
                 else:
@@ -237,7 +252,8 @@ def check_saved(path: Path, saved: AgentSpec) -> None:
     Raises:
         ValueError: naming what differs.
     """
-    here = AgentSpec(candidates=saved.candidates)
+    terms = LINEAR_TERMS if saved.scorer == "linear" else ()
+    here = AgentSpec(candidates=saved.candidates, scorer=saved.scorer, terms=terms)
     found = here.differences(saved)
     if found:
         raise ValueError(

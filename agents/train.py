@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.checkpoints import checkpoint_path, latest_checkpoint, save_atomic
+from agents.conditions import VALIDATION_SEEDS, validation_scenario
 from agents.run_folder import (
     RunLock,
     interrupt_on_sigterm,
@@ -241,18 +242,11 @@ def evaluation_scenario(config: TrainConfig) -> tuple[EnvConfig, str, float]:
     no headings, free motion, 20 pictures."""
     if config.condition != "mixed":
         return config.env_config(), config.condition, config.budget
-    side = 14**0.5
-    scenario = make_config(
-        n_robots=14,
-        arena_size=(side, side),
-        camera={"pixel_noise": 1.0, "orientation": False},
-        max_cycles=401,
-    )
-    return scenario, "free", config.budget
+    return validation_scenario("free", config.budget).config, "free", config.budget
 
 
 #: The progress display's evaluation seeds start here (never a training or benchmark seed).
-PROGRESS_SEEDS = 900_000
+PROGRESS_SEEDS = VALIDATION_SEEDS
 
 
 def train(config: TrainConfig) -> TrainResult:
@@ -400,7 +394,9 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
                     callback=CallbackList(callbacks),
                     reset_num_timesteps=checkpoint is None,
                 )
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as error:
+            if not _is_interrupt(error):
+                raise
             saved = save_atomic(model, checkpoint_path(directory, int(model.num_timesteps)))
             save_atomic(model, directory / "agent.zip")
             raise Interrupted(directory, saved, int(model.num_timesteps)) from None
@@ -415,6 +411,19 @@ def _learn(config: TrainConfig, directory: Path, checkpoint: Path | None) -> Tra
     return TrainResult(
         directory, agent, int(model.num_timesteps), time.perf_counter() - start, comparison
     )
+
+
+def _is_interrupt(error: BaseException) -> bool:
+    """Whether ``error`` is Ctrl-C or SIGTERM: a ``KeyboardInterrupt``, or the ``SystemError``
+    a compiled function (numba's dispatcher, the ``fast`` extra) raises when the signal's
+    handler raised inside it ("returned a result with an exception set", the interrupt
+    chained as its cause)."""
+    seen: BaseException | None = error
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    return False
 
 
 def start_from_uniform(model: Any) -> None:

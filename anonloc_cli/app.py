@@ -417,6 +417,36 @@ def train(
     raise typer.Exit(status)
 
 
+SEARCH_FIELDS = config_fields("agents", "search.py", "SearchConfig")
+
+
+@app.command()
+@with_config_options(SEARCH_FIELDS, skip=set())
+def search(
+    out: Annotated[
+        Path, typer.Argument(help="The search's folder: search.json, progress.csv, agent.zip.")
+    ],
+    resume: Annotated[
+        bool, typer.Option(help="Continue the search in OUT (with its own settings).")
+    ] = False,
+    quiet: Quiet = False,
+    verbose: Verbose = 0,
+    config: dict[str, Any] | None = None,
+) -> None:
+    """Search the weights of a linear agent against chance (the cross-entropy method).
+
+    Every generation plays `uniform` and each candidate weight vector on the same drawn training
+    scenarios and seeds, and keeps the ones that need fewer pictures and less energy than
+    `uniform`; see docs/agents.md. Writes OUT/search.json (resumable after a kill),
+    progress.csv (the validation curve) and agent.zip (for anonloc eval --agent OUT). Every
+    field of agents.search.SearchConfig is an option. Needs the rl extra.
+    """
+    with failures_reported(verbose):
+        from anonloc_cli import learning
+
+        learning.search(out=out, resume=resume, quiet=quiet, config=config or {})
+
+
 @app.command(name="eval")
 def evaluate(
     agent: Annotated[

@@ -106,6 +106,22 @@ def train(
     return 0
 
 
+def search(*, out: Path, resume: bool, quiet: bool, config: dict[str, Any]) -> None:
+    """Run (or resume) a search of a linear agent in ``out`` (:func:`agents.search.search`);
+    ``config``: the fields of :class:`agents.search.SearchConfig` (a resume checks that they
+    are the search's own)."""
+    _rl_modules()
+    from agents import search as module
+
+    try:
+        settings = module.SearchConfig(**config)
+        module.search(settings, out, log=(lambda _: None) if quiet else echo, resume=resume)
+    except (ValueError, TypeError, FileExistsError, FileNotFoundError) as error:
+        raise InputError(str(error)) from None
+    if not quiet:
+        echo(f"agent: {out / 'agent.zip'} (anonloc eval --agent {out})")
+
+
 def comparison_text(mine: float, random: float) -> str:
     """The closing line: the agent's pictures to 99 % against random motion's, in words."""
     text = (

@@ -4,6 +4,8 @@
   (``scipy.stats.binomtest(k, n).proportion_ci(method="wilson")``);
 * :func:`bootstrap_mean`: a mean with its percentile-bootstrap interval
   (``scipy.stats.bootstrap``, seeded);
+* :func:`paired_ratio`: ``mean(a) / mean(b)`` of two excitations played on the same seeds, with
+  a bootstrap interval that resamples the episodes jointly (numpy only);
 * :func:`km_median`: the Kaplan-Meier median of a time that some episodes never reach (pictures
   to 99 %), with its interval (``scipy.stats.ecdf`` on ``scipy.stats.CensoredData``).
 
@@ -211,3 +213,17 @@ def km_median(
         episodes=len(t),
         reached=int(done.sum()),
     )
+
+
+def paired_ratio(
+    a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray, resamples: int = 10_000
+) -> Interval95:
+    """``mean(a) / mean(b)`` over episodes played on the same seeds, with a 95 % bootstrap
+    interval that resamples the episodes jointly (seeded)."""
+    x, y = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if x.shape != y.shape or not len(x):
+        raise ValueError(f"paired samples must have one equal length > 0, got {x.shape, y.shape}")
+    pick = np.random.default_rng(0).integers(0, len(x), size=(resamples, len(x)))
+    ratios = x[pick].mean(axis=1) / np.maximum(y[pick].mean(axis=1), 1e-12)
+    low, high = np.quantile(ratios, [0.025, 0.975])
+    return Interval95(float(x.mean() / max(y.mean(), 1e-12)), float(low), float(high))

@@ -38,8 +38,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
 from baselines.excitations.code import CentralizedCode
@@ -47,7 +45,7 @@ from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
-from baselines.statistics import Interval95, SurvivalMedian, bootstrap_mean, km_median
+from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median, paired_ratio
 from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
@@ -86,18 +84,6 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
     }
 
 
-def paired_ratio(a: Sequence[float], b: Sequence[float], resamples: int = 10_000) -> Interval95:
-    """``mean(a) / mean(b)`` over episodes played on the same seeds, with a 95 % bootstrap
-    interval that resamples the episodes jointly (seeded)."""
-    x, y = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    if x.shape != y.shape or not len(x):
-        raise ValueError(f"paired samples must have one equal length > 0, got {x.shape, y.shape}")
-    pick = np.random.default_rng(0).integers(0, len(x), size=(resamples, len(x)))
-    ratios = x[pick].mean(axis=1) / np.maximum(y[pick].mean(axis=1), 1e-12)
-    low, high = np.quantile(ratios, [0.025, 0.975])
-    return Interval95(float(x.mean() / max(y.mean(), 1e-12)), float(low), float(high))
-
-
 def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Excitation]]:
     """How to build each named excitation (the agent's model is loaded once)."""
     out: dict[str, Callable[[], Excitation]] = {
@@ -118,6 +104,23 @@ def median_text(row: dict[str, Any]) -> str:
         row["median"], row["median_low"], row["median_high"], int(row["episodes"]), 0
     )
     return str(median)
+
+
+def row_text(row: dict[str, Any]) -> str:
+    """A row's pictures, median, episodes reached, energy and wrong share, as table cells."""
+    return (
+        f"{row['pictures']:.2f} [{row['low']:.2f}, {row['high']:.2f}] | {median_text(row)} | "
+        f"{row['reached']}/{row['episodes']} | {row['energy']:.2f} | "
+        f"{100 * row['wrong']:.2f} %"
+    )
+
+
+def write_rows(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """The rows as JSON at ``path``, written atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(list(rows), indent=1))
+    tmp.replace(path)
 
 
 def main() -> None:
@@ -161,18 +164,10 @@ def main() -> None:
                 "seconds": time.perf_counter() - start,
             }
             rows.append(row)
-            print(
-                f"| {name} | {excitation} | {row['pictures']:.2f} [{row['low']:.2f}, "
-                f"{row['high']:.2f}] | {median_text(row)} | {row['reached']}/{row['episodes']} "
-                f"| {row['energy']:.2f} "
-                f"| {100 * row['wrong']:.2f} % | {limit.information:.2f} / {limit.union:.2f} |",
-                flush=True,
-            )
+            limits = f"{limit.information:.2f} / {limit.union:.2f}"
+            print(f"| {name} | {excitation} | {row_text(row)} | {limits} |", flush=True)
             if args.json:
-                args.json.parent.mkdir(parents=True, exist_ok=True)
-                tmp = args.json.with_suffix(".tmp")
-                tmp.write_text(json.dumps(rows, indent=1))
-                tmp.replace(args.json)
+                write_rows(args.json, rows)
     print_ratios(rows)
 
 

@@ -17,7 +17,6 @@ Usage (from the repository's root, with the ``benchmarl`` extra)::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
 from collections.abc import Callable
@@ -31,7 +30,7 @@ from agents.policy import LearnedExcitation, load_model
 from baselines.excitations import Excitation
 from baselines.registry import EXCITATIONS
 from benchmarks.agent_conditions import evaluation_conditions
-from benchmarks.agent_eval import median_text, score
+from benchmarks.agent_eval import row_text, score, write_rows
 
 CONDITION = "free N=10"
 
@@ -111,17 +110,9 @@ def main() -> None:
         row["seconds"] = time.perf_counter() - start
         row["train_seconds"], row["frames"] = seconds, args.frames
         rows.append(row)
-        print(
-            f"| {name} | {row['pictures']:.2f} [{row['low']:.2f}, {row['high']:.2f}] | "
-            f"{median_text(row)} | {row['reached']}/{row['episodes']} | {row['energy']:.2f} | "
-            f"{100 * row['wrong']:.2f} % |",
-            flush=True,
-        )
+        print(f"| {name} | {row_text(row)} |", flush=True)
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        tmp = args.json.with_suffix(".tmp")
-        tmp.write_text(json.dumps(rows, indent=1))
-        tmp.replace(args.json)
+        write_rows(args.json, rows)
 
 
 if __name__ == "__main__":

@@ -408,3 +408,15 @@ def test_a_mixed_run_draws_its_scenarios_and_refuses_overrides() -> None:
     assert all(crew.n in TRAINING_ROBOTS for crew in venv.crews)
     with pytest.raises(ValueError, match="mixed"):
         TrainConfig(condition="mixed", overrides={"n_robots": 5})
+
+
+def test_an_interrupt_inside_a_compiled_function_still_stops_and_saves() -> None:
+    """numba's dispatcher turns a signal handler's ``KeyboardInterrupt`` into a ``SystemError``
+    with the interrupt as its cause: training treats it as Ctrl-C (it saves), and any other
+    ``SystemError`` as the bug it is."""
+    from agents.train import _is_interrupt
+
+    chained = SystemError("returned a result with an exception set")
+    chained.__cause__ = KeyboardInterrupt()
+    assert _is_interrupt(chained)
+    assert not _is_interrupt(SystemError("returned NULL without setting an exception"))

@@ -13,7 +13,7 @@ pytest.importorskip("stable_baselines3")
 
 import anonloc_env
 import baselines
-from agents.evaluation import censored_pictures, play
+from agents.evaluation import censored, censored_pictures, play
 from agents.policy import BUNDLED, LearnedExcitation, load_model
 from baselines.registry import make_excitation
 from tests.cli_helpers import read_csv, run_script
@@ -101,3 +101,35 @@ def test_the_bundled_agent_beats_random_motion_on_a_small_condition() -> None:
         play(config, "free", 0.2, lambda: make_excitation("random"), seeds, 20), 20
     )
     assert agent <= random - 0.5, (agent, random)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("condition", "picture_ratio"), [("free", 1.15), ("swarm", 1.05)])
+def test_the_bundled_agent_saves_energy_against_uniform(
+    condition: str, picture_ratio: float
+) -> None:
+    """10 robots at one per square metre, 1 px, no headings, free motion and swarm duty, 20
+    episodes on the evaluation seeds (never searched on): the bundled agent spends less energy
+    to 99 % than ``uniform``, its no-learning ablation, at no more than ``picture_ratio`` times
+    its pictures.
+
+    Measured when the agent was bundled (``docs/agents.md``, the same seeds): free 0.87x the
+    energy at 1.09x the pictures, swarm 0.94x at 0.93x. It does not beat ``uniform`` on
+    pictures in free motion (issue 24's target, missed): the bound says what it was measured
+    to do, with room for one episode's difference (1/20 of about 3 pictures, 1.7 %)."""
+    config = anonloc_env.make_config(**_scenario(10), max_cycles=601)
+    seeds = range(100_000, 100_020)
+    model = load_model("bundled")
+    runs = {
+        name: [censored(r, 30) for r in play(config, condition, 0.2, make, seeds, 30)]
+        for name, make in (
+            ("agent", lambda: LearnedExcitation(model)),
+            ("uniform", lambda: make_excitation("uniform")),
+        )
+    }
+    agent, uniform = (np.array(runs[k]) for k in ("agent", "uniform"))
+    assert agent[:, 1].mean() < uniform[:, 1].mean(), (agent.mean(0), uniform.mean(0))
+    assert agent[:, 0].mean() <= picture_ratio * uniform[:, 0].mean(), (
+        agent.mean(0),
+        uniform.mean(0),
+    )

@@ -26,10 +26,19 @@ DATA_LIMIT = 16 << 20
 SHORT = ("--seeds", "1", "--pictures", "3", "--workers", "1")
 
 
+def _without_spec(tmp_path: Path) -> Path:
+    """The bundled agent as an agent saved before specs existed: its run folder's
+    ``config.json`` then decides its condition."""
+    with zipfile.ZipFile(BUNDLED) as source:
+        data = json.loads(source.read("data"))
+    data["policy_kwargs"].pop("spec", None)
+    return _rewritten(tmp_path, "nospec.zip", "data", json.dumps(data).encode())
+
+
 def _run_folder(tmp_path: Path, train: object) -> Path:
     run = tmp_path / "r"
     run.mkdir(exist_ok=True)
-    shutil.copy(BUNDLED, run / "agent.zip")
+    shutil.copy(_without_spec(tmp_path), run / "agent.zip")
     (run / "config.json").write_text(json.dumps({"train": train}))
     return run
 

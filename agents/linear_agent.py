@@ -1,0 +1,60 @@
+"""The linear scorer's weights as a saved agent (``agent.zip``), loadable like any other.
+
+A search (:mod:`agents.search`) finds weights; :func:`save_linear_agent` writes them as an SB3
+PPO agent whose policy is :class:`agents.features.CandidatePolicy` with the ``linear`` scorer,
+and whose spec (:class:`agents.spec.AgentSpec`, ``scorer="linear"`` with the term names) is
+saved beside them and checked when it is loaded. So ``baselines.make("agent", env, path=...)``,
+``anonloc eval --agent`` and ``anonloc train --resume``-style fine-tuning read it as they read a
+PPO agent. Its logits are computed in float32 by torch; the search's numpy chooser
+(:class:`agents.search.LinearChooser`) computes the same terms in float64 (a test checks they
+agree within 1e-5).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from agents.linear_terms import LINEAR_TERMS
+from agents.spec import AgentSpec
+
+
+def linear_spec(condition: str = "mixed", budget: float = 0.2) -> AgentSpec:
+    """The spec of a linear agent (the default features and candidates)."""
+    return AgentSpec(condition=condition, budget=budget, scorer="linear", terms=LINEAR_TERMS)
+
+
+def save_linear_agent(weights: np.ndarray, path: Path, spec: AgentSpec | None = None) -> Path:
+    """Write ``weights`` (one per term of :data:`agents.linear_terms.LINEAR_TERMS`) as an agent
+    at ``path`` (atomically); ``spec`` defaults to :func:`linear_spec`.
+
+    Raises:
+        ValueError: ``weights`` has the wrong length or a non-finite value, or ``spec`` is not a
+            linear one.
+    """
+    import torch
+    from stable_baselines3 import PPO
+
+    import anonloc_env
+    from agents.checkpoints import save_atomic
+    from agents.features import CandidatePolicy, LinearScorer
+    from agents.vec import AnonLocVecEnv
+
+    weights = np.asarray(weights, np.float64)
+    if weights.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(weights)):
+        raise ValueError(f"weights must be {len(LINEAR_TERMS)} finite numbers, got {weights}")
+    spec = spec or linear_spec()
+    if spec.scorer != "linear":
+        raise ValueError(f"spec must be a linear agent's, got scorer {spec.scorer!r}")
+    free = dataclasses.replace(spec, condition="free")  # the spaces only; the spec saved is `spec`
+    venv = AnonLocVecEnv(anonloc_env.make_config(n_robots=2), n_envs=1, spec=free)
+    kwargs = {"spec": spec.to_json(), "scorer": "linear"}
+    model = PPO(CandidatePolicy, venv, policy_kwargs=kwargs, device="cpu", seed=0)
+    scorer = model.policy.scorer
+    assert isinstance(scorer, LinearScorer)  # the policy_kwargs above
+    with torch.no_grad():
+        scorer.weights.copy_(torch.as_tensor(weights, dtype=torch.float32))
+    venv.close()
+    return save_atomic(model, Path(path))

@@ -1,0 +1,353 @@
+"""Policy search for the linear candidate scorer: an evolution strategy against chance.
+
+PPO on the Deep-Sets scorer did not beat ``uniform`` (``docs/agents.md``): its gradient is
+estimated from rewards that a coin flip among the same candidates already earns, and 3 M
+decisions did not move it. This module searches the few weights of the linear scorer
+(:mod:`agents.linear_terms`) directly on what the project measures: the censored pictures to
+99 % and the energy spent by then, each *relative to* ``uniform`` on the same scenarios and
+seeds (common random numbers), so the noise of the scenario cancels and every generation asks
+only "which weights beat chance here?".
+
+The method (an evolution strategy with mirrored sampling and rank shaping, as in Salimans et
+al. 2017, "Evolution strategies as a scalable alternative to reinforcement learning"):
+
+1. Start from ``mu = 0``: the scorer *is* ``uniform`` there.
+2. Each generation draws ``scenarios`` training scenarios (:func:`agents.conditions.draw_scenario`,
+   the conditions of a ``mixed`` run: N in {3, 6, 14, 30, 40}, crowds, clutter, headings and
+   swarm duty) and ``seeds`` seeds for each, and plays ``uniform``, ``mu`` and ``pairs``
+   mirrored pairs ``mu +- std * noise`` on all of them.
+3. A member's cost is ``mean_s log(P_s / P_s^uniform) + energy_weight * mean_s log(E_s /
+   E_s^uniform)`` over the scenarios ``s`` (P: censored mean pictures to 99 %, E: mean energy
+   to 99 %): the logs of geometric-mean ratios, so that one scenario where a member jams (12
+   pictures against 3) weighs as much as one where it is 4 times faster, not more.
+4. The costs become centered ranks; ``mu`` moves by ``-step_size`` times the mean over the
+   pairs of ``(rank(+) - rank(-)) * noise``. A pair is played on the same episodes, so what
+   differs between its two members is the direction of the perturbation alone.
+
+Every ``validate_every`` generations ``mu`` and ``uniform`` play the validation condition (14
+robots at one per m², a training N, seeds 900000 and up, never an evaluation seed, free motion
+and swarm duty): the curve in ``progress.csv`` is the run's own start (``uniform``) against its
+progress, with paired intervals. The run folder holds ``search.json`` (the config, the state and
+the history after each generation, written atomically: a search killed at any point resumes at
+the generation it was in) and ``agent.zip`` (the final ``mu`` as an SB3 agent,
+:func:`agents.linear_agent.save_linear_agent`).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.candidates import CandidateChooser
+from agents.conditions import (
+    VALIDATION_SEEDS,
+    ConditionRanges,
+    Scenario,
+    draw_scenario,
+    validation_scenario,
+)
+from agents.evaluation import censored, play
+from agents.linear_terms import LINEAR_TERMS, linear_terms
+from agents.policy import draw
+from anonloc_env._checks import check_number
+from baselines.statistics import paired_ratio
+
+
+class LinearChooser(CandidateChooser):
+    """Candidates drawn from ``softmax(terms @ weights)`` with each robot's own generator.
+
+    Args:
+        weights: ``(T,)`` one weight per term of :data:`agents.linear_terms.LINEAR_TERMS`;
+            all zeros is ``uniform`` bit for bit.
+    """
+
+    def __init__(self, weights: np.ndarray) -> None:
+        super().__init__()
+        weights = np.asarray(weights, np.float64)
+        if weights.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(weights)):
+            raise ValueError(
+                f"weights must be {len(LINEAR_TERMS)} finite numbers, got {weights.tolist()}"
+            )
+        self.weights = weights
+
+    def on_scored(self) -> None:
+        if self.cset is None:
+            return
+        obs = self.observation
+        terms = linear_terms(
+            obs["candidates"].astype(np.float64), obs["context"].astype(np.float64), np.stack
+        )
+        self.decide(draw(terms @ self.weights, self.rngs))
+
+
+@dataclass(frozen=True)
+class SearchConfig:
+    """An evolution-strategy search of the linear scorer (see the module documentation)."""
+
+    generations: int = 12
+    """Generations to run, >= 1."""
+    pairs: int = 7
+    """Mirrored pairs ``mu +- std * noise`` played per generation, >= 1."""
+    scenarios: int = 8
+    """Training scenarios drawn per generation (``agents.conditions.draw_scenario``), >= 1."""
+    seeds: int = 2
+    """Episodes (seeds) per scenario and member, >= 1."""
+    pictures: int = 12
+    """Pictures per episode; an episode that never reaches 99 % counts there, >= 2."""
+    energy_weight: float = 0.5
+    """Weight of the energy ratio to ``uniform`` in the cost (the picture ratio's is 1), >= 0."""
+    std: float = 0.5
+    """The spread of the perturbations of every weight, > 0."""
+    step_size: float = 1.0
+    """How far ``mu`` moves along the estimated gradient of the ranks per generation, > 0."""
+    validate_every: int = 2
+    """Generations between two validations of ``mu`` against ``uniform``, >= 1."""
+    validation_episodes: int = 30
+    """Episodes of each validation condition (free and swarm), >= 2."""
+    seed: int = 0
+    """Seeds the scenarios, the draws and the episodes."""
+    minutes: float = 60.0
+    """Wall-clock budget (min): no generation starts after it."""
+    ranges: ConditionRanges = field(default_factory=ConditionRanges)
+    """The training conditions (:class:`agents.conditions.ConditionRanges`)."""
+
+    def __post_init__(self) -> None:
+        check_number("generations", self.generations, 1, 10_000, integer=True)
+        check_number("pairs", self.pairs, 1, 1_000, integer=True)
+        check_number("scenarios", self.scenarios, 1, 1_000, integer=True)
+        check_number("seeds", self.seeds, 1, 1_000, integer=True)
+        check_number("pictures", self.pictures, 2, 10_000, integer=True)
+        check_number("energy_weight", self.energy_weight, 0.0, 1e6)
+        check_number("std", self.std, 1e-6, 1e6)
+        check_number("step_size", self.step_size, 1e-6, 1e6)
+        check_number("validate_every", self.validate_every, 1, 10_000, integer=True)
+        check_number("validation_episodes", self.validation_episodes, 2, 10_000, integer=True)
+        check_number("seed", self.seed, 0, 2**63 - 1, integer=True)
+        check_number("minutes", self.minutes, 0.0, 1e6)
+
+
+def play_weights(
+    scenario: Scenario, weights: np.ndarray, seeds: Sequence[int], pictures: int
+) -> tuple[np.ndarray, int]:
+    """``(firsts, decisions)``: ``(len(seeds), 2)`` censored pictures to 99 % and energy to
+    99 % (m) of ``bayes`` robots driven by the linear scorer with ``weights`` (zeros:
+    ``uniform``), and the robot-decisions (robots times pictures) the episodes took."""
+    make: Callable[[], LinearChooser] = lambda: LinearChooser(weights)  # noqa: E731
+    results = play(scenario.config, scenario.condition, scenario.budget, make, seeds, pictures)
+    decisions = sum(len(r.records) for r in results)
+    return np.array([censored(r, pictures) for r in results], np.float64), decisions
+
+
+def costs(
+    members: np.ndarray, scenarios: Sequence[tuple[Scenario, Sequence[int]]], config: SearchConfig
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(cost (P,), ratios (P, 2), decisions)``: each member's cost, its geometric-mean
+    picture and energy ratios to ``uniform`` over ``scenarios`` (each with its seeds), and
+    the robot-decisions played (``uniform``'s included)."""
+    ratios = np.zeros((len(members), len(scenarios), 2))
+    total = 0
+    for s, (scenario, seeds) in enumerate(scenarios):
+        chance, decisions = play_weights(
+            scenario, np.zeros(len(LINEAR_TERMS)), seeds, config.pictures
+        )
+        total += decisions
+        base = np.maximum(chance.mean(axis=0), 1e-9)
+        for m, weights in enumerate(members):
+            played, decisions = play_weights(scenario, weights, seeds, config.pictures)
+            ratios[m, s] = played.mean(axis=0) / base
+            total += decisions
+    logs = np.log(ratios).mean(axis=1)
+    return logs[:, 0] + config.energy_weight * logs[:, 1], np.exp(logs), total
+
+
+def validate(weights: np.ndarray, episodes: int, pictures: int) -> dict[str, float]:
+    """``weights`` against ``uniform`` on the validation condition
+    (:func:`agents.conditions.validation_scenario`), in free motion and on swarm duty: the
+    picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
+    ``free_pictures_low``, ... ``swarm_energy_high``) and the censored mean pictures of both."""
+    seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
+    out: dict[str, float] = {}
+    for condition in ("free", "swarm"):
+        scenario = validation_scenario(condition, pictures=pictures)
+        mine, _ = play_weights(scenario, weights, seeds, pictures)
+        chance, _ = play_weights(scenario, np.zeros(len(LINEAR_TERMS)), seeds, pictures)
+        out[f"{condition}_mean"] = float(mine[:, 0].mean())
+        out[f"{condition}_uniform"] = float(chance[:, 0].mean())
+        for k, what in enumerate(("pictures", "energy")):
+            ratio = paired_ratio(mine[:, k], chance[:, k])
+            out[f"{condition}_{what}"] = ratio.mean
+            out[f"{condition}_{what}_low"] = ratio.low
+            out[f"{condition}_{what}_high"] = ratio.high
+    return out
+
+
+@dataclass
+class SearchState:
+    """Where a search stands after a generation (``search.json``)."""
+
+    generation: int = 0
+    decisions: int = 0
+    mu: list[float] = field(default_factory=lambda: [0.0] * len(LINEAR_TERMS))
+    seconds: float = 0.0
+
+
+def generation_scenarios(config: SearchConfig, generation: int) -> list[tuple[Scenario, list[int]]]:
+    """The scenarios and seeds of one generation (drawn from ``config.seed`` and the
+    generation's number, so a resumed search plays what the interrupted one would have)."""
+    rng = np.random.default_rng([config.seed, generation, 0x5EA4C])
+    out = []
+    for _ in range(config.scenarios):
+        scenario = draw_scenario(rng, config.ranges)
+        seeds = [int(s) for s in rng.integers(0, 2**31, config.seeds)]
+        out.append((scenario, seeds))
+    return out
+
+
+def centered_ranks(cost: np.ndarray) -> np.ndarray:
+    """``cost``'s ranks scaled to [-0.5, 0.5] (ties broken by position): what the update
+    reads instead of the costs themselves, so one outlier scenario cannot dominate it."""
+    ranks = np.empty(len(cost))
+    ranks[np.argsort(cost, kind="stable")] = np.arange(len(cost))
+    return ranks / max(len(cost) - 1, 1) - 0.5
+
+
+def step(state: SearchState, config: SearchConfig, log: Callable[[dict[str, Any]], None]) -> None:
+    """One generation: draw mirrored pairs, play them with ``mu`` and ``uniform`` on the same
+    scenarios and seeds, move ``mu`` down the estimated gradient; ``state`` moves on."""
+    start = time.perf_counter()
+    rng = np.random.default_rng([config.seed, state.generation, 0xD4A3])
+    mu = np.asarray(state.mu)
+    noise = rng.standard_normal((config.pairs, len(mu)))
+    members = np.vstack([mu, mu + config.std * noise, mu - config.std * noise])
+    cost, ratios, decisions = costs(members, generation_scenarios(config, state.generation), config)
+    ranks = centered_ranks(cost[1:])
+    plus, minus = ranks[: config.pairs], ranks[config.pairs :]
+    gradient = ((plus - minus)[:, None] * noise).mean(axis=0)
+    state.mu = (mu - config.step_size * gradient).tolist()
+    state.generation += 1
+    state.seconds += time.perf_counter() - start
+    state.decisions += decisions
+    log(
+        {
+            "seconds": round(state.seconds, 1),
+            "decisions": state.decisions,
+            "mu_pictures": ratios[0, 0],
+            "mu_energy": ratios[0, 1],
+            "mu_cost": float(cost[0]),
+            "best_cost": float(cost.min()),
+            "step": float(config.step_size * np.linalg.norm(gradient)),
+        }
+    )
+
+
+def _write_progress(directory: Path, history: list[dict[str, Any]]) -> None:
+    """``progress.csv`` from the history, written atomically."""
+    columns: list[str] = []
+    for row in history:
+        columns += [k for k in row if k not in columns]
+    tmp = directory / "progress.csv.tmp"
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, columns)
+        writer.writeheader()
+        writer.writerows(history)
+    tmp.replace(directory / "progress.csv")
+
+
+def search(
+    config: SearchConfig,
+    directory: Path,
+    log: Callable[[str], None] = print,
+    resume: bool = False,
+) -> np.ndarray:
+    """Run (or, with ``resume``, continue) the search in ``directory`` and save the final
+    ``mu`` as ``directory / "agent.zip"``; returns ``mu``.
+
+    ``search.json`` holds the config, the state and the history after every generation
+    (written atomically), so a search killed at any point resumes at the generation it was in
+    and loses nothing but that generation's unfinished work.
+
+    Raises:
+        FileExistsError: ``directory`` holds a search and ``resume`` is False.
+        FileNotFoundError: ``resume`` and there is no search in ``directory``.
+        ValueError: ``resume`` with a config other than the saved one.
+    """
+    from agents.linear_agent import save_linear_agent
+
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "search.json"
+    if path.exists() and not resume:
+        raise FileExistsError(f"{directory} holds a search: resume it, or choose another folder")
+    if resume:
+        if not path.exists():
+            raise FileNotFoundError(f"no search to resume in {directory}")
+        saved = json.loads(path.read_text())
+        if saved["config"] != _config_json(config):
+            raise ValueError(f"{directory} was searched with another config: {saved['config']}")
+        state = SearchState(**saved["state"])
+        history: list[dict[str, Any]] = saved["history"]
+    else:
+        state = SearchState()
+        history = []
+
+    def save() -> None:
+        data = {
+            "config": _config_json(config),
+            "state": dataclasses.asdict(state),
+            "history": history,
+        }
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data, indent=1))
+        tmp.replace(path)
+        _write_progress(directory, history)
+
+    started = time.perf_counter()
+    while state.generation < config.generations:
+        if (time.perf_counter() - started) / 60.0 > config.minutes:
+            log(f"stopped at generation {state.generation}: {config.minutes} min are spent")
+            break
+        row: dict[str, Any] = {}
+        if state.generation % config.validate_every == 0:
+            row |= validate(np.asarray(state.mu), config.validation_episodes, config.pictures)
+        step(state, config, row.update)
+        history.append({"generation": state.generation - 1, **row})
+        save()
+        log(_summary(history[-1]))
+    last = history[-1] if history else {}
+    if not (last.get("generation") == state.generation and "free_pictures" in last):
+        final = validate(np.asarray(state.mu), config.validation_episodes, config.pictures)
+        history.append({"generation": state.generation, **final})
+        save()
+        log(_summary(history[-1]))
+    mu = np.asarray(state.mu)
+    save_linear_agent(mu, directory / "agent.zip")
+    return mu
+
+
+def _config_json(config: SearchConfig) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads(json.dumps(dataclasses.asdict(config)))
+    return data
+
+
+def _summary(row: dict[str, Any]) -> str:
+    text = f"generation {row['generation']}"
+    if "mu_pictures" in row:
+        text += (
+            f": train pictures {row['mu_pictures']:.3f}x, energy {row['mu_energy']:.3f}x uniform"
+            f", cost {row['mu_cost']:.3f} (best member {row['best_cost']:.3f}), step"
+            f" {row['step']:.2f}"
+        )
+    if "free_pictures" in row:
+        text += "; validation " + ", ".join(
+            f"{c} {row[c + '_pictures']:.3f}x [{row[c + '_pictures_low']:.2f}, "
+            f"{row[c + '_pictures_high']:.2f}] pictures, {row[c + '_energy']:.3f}x energy"
+            for c in ("free", "swarm")
+        )
+    return text

@@ -1,0 +1,196 @@
+"""The linear agent and its search (issue 24): zero weights are ``uniform``, torch and numpy agree,
+the agent saves and loads with its spec, and a search killed mid-run resumes and loses nothing."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import anonloc_env
+import baselines
+from agents.conditions import ConditionRanges
+from agents.features import LinearScorer
+from agents.linear_agent import linear_spec, save_linear_agent
+from agents.linear_terms import LINEAR_TERMS, linear_terms
+from agents.policy import load_model
+from agents.search import LinearChooser, SearchConfig, search
+from agents.spec import AgentSpec
+from baselines.excitations import SwarmDuty
+from baselines.registry import make_excitation
+from baselines.runner import run_episode
+
+#: A search small enough for a test: 3 robots, 4 pictures, one scenario of one seed.
+TINY = SearchConfig(
+    generations=2,
+    pairs=1,
+    scenarios=1,
+    seeds=1,
+    pictures=4,
+    validate_every=1,
+    validation_episodes=2,
+    ranges=ConditionRanges(robots=(3,), pictures=4),
+)
+
+
+def _episode(own: object, swarm: bool, seed: int = 4) -> list[tuple]:
+    config = anonloc_env.make_config(n_robots=6, arena_size=(2.5, 2.5))
+    env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
+    excitation = SwarmDuty(own, 0.2, common_seed=seed) if swarm else own
+    team = baselines.make_team("bayes", env, excitation=excitation)
+    return run_episode(env, team, seed, max_pictures=8).rows()
+
+
+@pytest.mark.parametrize("swarm", [False, True])
+def test_zero_weights_are_uniform_bit_for_bit(swarm: bool) -> None:
+    zero = _episode(LinearChooser(np.zeros(len(LINEAR_TERMS))), swarm)
+    assert zero == _episode(make_excitation("uniform"), swarm)
+
+
+def test_weights_change_the_choices() -> None:
+    """A strong preference for slow candidates moves the robots less than chance does."""
+    weights = np.zeros(len(LINEAR_TERMS))
+    weights[[t.name for t in LINEAR_TERMS].index("speed*always")] = -30.0
+    slow = _episode(LinearChooser(weights), swarm=False)
+    assert slow != _episode(make_excitation("uniform"), swarm=False)
+
+
+def test_torch_and_numpy_terms_agree_to_1e_5() -> None:
+    """The SB3 policy's logits (float32, torch) equal the search's (float64, numpy)."""
+    rng = np.random.default_rng(0)
+    candidates = rng.normal(size=(5, 8, 7))
+    context = rng.uniform(size=(5, 10))
+    weights = rng.normal(size=len(LINEAR_TERMS))
+    scorer = LinearScorer()
+    with torch.no_grad():
+        scorer.weights.copy_(torch.as_tensor(weights))
+        logits, value = scorer(
+            torch.as_tensor(candidates).float(), torch.as_tensor(context).float()
+        )
+    expected = linear_terms(candidates, context, np.stack) @ weights
+    np.testing.assert_allclose(logits.numpy(), expected, rtol=1e-5, atol=1e-5)
+    assert value.shape == (5,)
+
+
+def test_weights_are_checked() -> None:
+    with pytest.raises(ValueError, match="weights must be 18 finite numbers"):
+        LinearChooser(np.zeros(3))
+    with pytest.raises(ValueError, match="weights must be 18 finite numbers"):
+        LinearChooser(np.full(len(LINEAR_TERMS), np.nan))
+
+
+def test_a_linear_agent_round_trips_with_its_spec(tmp_path: Path) -> None:
+    weights = np.linspace(-1, 1, len(LINEAR_TERMS))
+    path = save_linear_agent(weights, tmp_path / "agent.zip")
+    model = load_model(path)
+    np.testing.assert_allclose(model.policy.scorer.weights.detach().numpy(), weights, rtol=1e-6)
+    env = anonloc_env.parallel_env(n_robots=5)
+    team = baselines.make_team("agent", env, path=str(path))
+    observations, _ = env.reset(seed=1)
+    team.reset(np.random.SeedSequence(1).spawn(5))
+    actions = team.act([observations[a] for a in env.possible_agents])
+    assert actions.shape == (5, 2)
+    assert np.all(np.isfinite(actions))
+
+
+def test_a_linear_agent_whose_term_means_otherwise_is_refused(tmp_path: Path) -> None:
+    path = save_linear_agent(np.zeros(len(LINEAR_TERMS)), tmp_path / "agent.zip")
+    with zipfile.ZipFile(path) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    data = json.loads(members["data"])
+    spec = data["policy_kwargs"]["spec"]
+    spec["terms"][3]["meaning"] = "something else"
+    members["data"] = json.dumps(data).encode()
+    changed = tmp_path / "changed.zip"
+    with zipfile.ZipFile(changed, "w") as archive:
+        for name, content in members.items():
+            archive.writestr(name, content)
+    with pytest.raises(ValueError, match=r"terms\[3\] 'speed_sq\*always' means 'something else'"):
+        load_model(changed)
+
+
+def test_the_spec_records_the_scorer_and_its_terms() -> None:
+    spec = linear_spec()
+    assert AgentSpec.from_json(spec.to_json()) == spec
+    assert spec.differences(AgentSpec()) == ["scorer 'deep_sets', this spec has 'linear'"] + [
+        f"terms[{i}] {t.name!r} is only in this anonloc" for i, t in enumerate(LINEAR_TERMS)
+    ]
+    with pytest.raises(ValueError, match="terms must be given for the linear scorer"):
+        AgentSpec(scorer="linear")
+    with pytest.raises(ValueError, match="scorer"):
+        AgentSpec(scorer="transformer")
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("pairs", 0, "pairs"),
+        ("pictures", 1, "pictures"),
+        ("std", 0.0, "std"),
+        ("step_size", -1.0, "step_size"),
+        ("energy_weight", -1.0, "energy_weight"),
+    ],
+)
+def test_search_config_is_checked_when_built(field: str, value: object, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        dataclasses.replace(SearchConfig(), **{field: value})
+
+
+class _KilledError(Exception):
+    pass
+
+
+def test_a_search_killed_after_a_generation_resumes_and_loses_nothing(tmp_path: Path) -> None:
+    whole = search(TINY, tmp_path / "whole", log=lambda _: None)
+    seen: list[str] = []
+
+    def kill_after_first(line: str) -> None:
+        seen.append(line)
+        if line.startswith("generation 0"):
+            raise _KilledError
+
+    with pytest.raises(_KilledError):
+        search(TINY, tmp_path / "cut", log=kill_after_first)
+    assert not (tmp_path / "cut" / "agent.zip").exists()
+    with pytest.raises(FileExistsError, match="holds a search"):
+        search(TINY, tmp_path / "cut", log=lambda _: None)
+    with pytest.raises(ValueError, match="another config"):
+        search(dataclasses.replace(TINY, seed=1), tmp_path / "cut", resume=True)
+    resumed = search(TINY, tmp_path / "cut", log=lambda _: None, resume=True)
+    np.testing.assert_array_equal(resumed, whole)
+    saved = [json.loads((tmp_path / d / "search.json").read_text()) for d in ("whole", "cut")]
+    timeless = [
+        [{k: v for k, v in r.items() if k != "seconds"} for r in s["history"]] for s in saved
+    ]
+    assert timeless[0] == timeless[1]
+    assert [row["generation"] for row in saved[1]["history"]] == [0, 1, 2]
+    # the start is uniform itself: its validation ratios are exactly 1
+    assert saved[1]["history"][0]["free_pictures"] == 1.0
+    assert (tmp_path / "cut" / "progress.csv").read_text().startswith("generation,")
+    assert load_model(tmp_path / "cut" / "agent.zip").policy.scorer_kind == "linear"
+
+
+def test_anonloc_search_runs_as_users_run_it(tmp_path: Path) -> None:
+    """The real console script: a one-generation search writes a loadable agent; a second run
+    into the same folder, and bad settings, are refused with the parameter named."""
+    from tests.cli_helpers import run_script
+
+    out = tmp_path / "search"
+    small = ["--pairs", "1", "--scenarios", "1", "--seeds", "1"]
+    small += ["--pictures", "3", "--validation-episodes", "2", "--generations", "1"]
+    done = run_script("search", out, *small, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "generation 0" in done.stdout
+    assert (out / "agent.zip").is_file()
+    again = run_script("search", out, *small)
+    assert again.returncode != 0
+    assert "holds a search" in again.stderr
+    bad = run_script("search", tmp_path / "other", "--pairs", "0")
+    assert bad.returncode != 0
+    assert "pairs" in bad.stderr
+    assert not (tmp_path / "other" / "search.json").exists()
