@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.linear_terms import LINEAR_TERMS
+from agents.linear_terms import LINEAR_TERMS, check_weights
 from agents.spec import AgentSpec
 
 
@@ -42,9 +42,7 @@ def save_linear_agent(weights: np.ndarray, path: Path, spec: AgentSpec | None = 
     from agents.features import CandidatePolicy, LinearScorer
     from agents.vec import AnonLocVecEnv
 
-    weights = np.asarray(weights, np.float64)
-    if weights.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(weights)):
-        raise ValueError(f"weights must be {len(LINEAR_TERMS)} finite numbers, got {weights}")
+    weights = check_weights(weights)
     spec = spec or linear_spec()
     if spec.scorer != "linear":
         raise ValueError(f"spec must be a linear agent's, got scorer {spec.scorer!r}")

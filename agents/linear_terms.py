@@ -24,6 +24,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from agents.candidate_features import CANDIDATE_COLUMN, CONTEXT_COLUMN, Feature
 
 #: The belief at which the ``decided`` gate opens: ``bayes``'s decision threshold.
@@ -77,3 +79,15 @@ def linear_terms(candidates: Any, context: Any, stack: Callable[..., Any]) -> An
     ``stack=torch.stack``), in :data:`LINEAR_TERMS`' order."""
     gates = _gates(context)
     return stack([base * gate for base in _bases(candidates) for gate in gates], -1)
+
+
+def check_weights(weights: Any) -> np.ndarray:
+    """``weights`` as a float64 array of one finite weight per term of :data:`LINEAR_TERMS`.
+
+    Raises:
+        ValueError: another length, or a weight that is not finite.
+    """
+    out = np.asarray(weights, np.float64)
+    if out.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(out)):
+        raise ValueError(f"weights must be {len(LINEAR_TERMS)} finite numbers, got {out.tolist()}")
+    return out

@@ -67,9 +67,14 @@ def write_config(directory: Path, train: dict[str, Any], env: EnvConfig) -> None
     """Record a run's config in ``directory/config.json``, atomically: ``{"train": train,
     "env": <env as a dict>}`` (numpy scalars in ``train`` become plain numbers)."""
     record = {"train": json.loads(json.dumps(train, default=_jsonable)), "env": config_to_dict(env)}
-    path = directory / "config.json"
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(record, indent=2, default=_jsonable))
+    write_text_atomic(directory / "config.json", json.dumps(record, indent=2, default=_jsonable))
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file moved into place: a reader, or a kill
+    in the middle, sees the old file or the new one, never half of one."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(text)
     tmp.replace(path)
 
 

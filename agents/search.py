@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import json
 import time
 from collections.abc import Callable, Sequence
@@ -55,8 +56,9 @@ from agents.conditions import (
     validation_scenario,
 )
 from agents.evaluation import censored, play
-from agents.linear_terms import LINEAR_TERMS, linear_terms
+from agents.linear_terms import LINEAR_TERMS, check_weights, linear_terms
 from agents.policy import draw
+from agents.run_folder import write_text_atomic
 from anonloc_env._checks import check_number
 from baselines.statistics import paired_ratio
 
@@ -71,12 +73,7 @@ class LinearChooser(CandidateChooser):
 
     def __init__(self, weights: np.ndarray) -> None:
         super().__init__()
-        weights = np.asarray(weights, np.float64)
-        if weights.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(weights)):
-            raise ValueError(
-                f"weights must be {len(LINEAR_TERMS)} finite numbers, got {weights.tolist()}"
-            )
-        self.weights = weights
+        self.weights = check_weights(weights)
 
     def on_scored(self) -> None:
         if self.cset is None:
@@ -253,12 +250,11 @@ def _write_progress(directory: Path, history: list[dict[str, Any]]) -> None:
     columns: list[str] = []
     for row in history:
         columns += [k for k in row if k not in columns]
-    tmp = directory / "progress.csv.tmp"
-    with tmp.open("w", newline="") as f:
-        writer = csv.DictWriter(f, columns)
-        writer.writeheader()
-        writer.writerows(history)
-    tmp.replace(directory / "progress.csv")
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, columns)
+    writer.writeheader()
+    writer.writerows(history)
+    write_text_atomic(directory / "progress.csv", text.getvalue())
 
 
 def search(
@@ -303,9 +299,7 @@ def search(
             "state": dataclasses.asdict(state),
             "history": history,
         }
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(data, indent=1))
-        tmp.replace(path)
+        write_text_atomic(path, json.dumps(data, indent=1))
         _write_progress(directory, history)
 
     started = time.perf_counter()
