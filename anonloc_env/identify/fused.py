@@ -30,38 +30,23 @@ def _wrap_fast(angle: float) -> float:
 
 
 @jit
-def _stable_order(key: np.ndarray, n: int, order: np.ndarray, work: np.ndarray) -> None:
-    """``order[:n]`` = ``np.argsort(key[:n], kind="stable")``, without allocating: runs of 16 by
-    insertion, then merged bottom-up (``work`` as long as ``order``)."""
-    for i in range(n):
-        order[i] = i
-    run = 16
-    for lo in range(0, n, run):
-        for i in range(lo + 1, min(lo + run, n)):
+def _stable_order(key: np.ndarray, n: int, order: np.ndarray) -> None:
+    """``order[:n]`` = ``np.argsort(key[:n], kind="stable")`` (no NaN): a quicksort, then each
+    run of equal keys put back in the order of its indices."""
+    order[:n] = np.argsort(key[:n])
+    start = 0
+    while start < n:
+        end = start + 1
+        while end < n and key[order[end]] == key[order[start]]:
+            end += 1
+        for i in range(start + 1, end):  # ties (rare): by index
             item = order[i]
             j = i
-            while j > lo and key[order[j - 1]] > key[item]:
+            while j > start and order[j - 1] > item:
                 order[j] = order[j - 1]
                 j -= 1
             order[j] = item
-    src, dst = order, work
-    swapped = False
-    while run < n:
-        for lo in range(0, n, 2 * run):
-            mid, hi = min(lo + run, n), min(lo + 2 * run, n)
-            i, j = lo, mid
-            for out in range(lo, hi):
-                if j >= hi or (i < mid and key[src[i]] <= key[src[j]]):
-                    dst[out] = src[i]
-                    i += 1
-                else:
-                    dst[out] = src[j]
-                    j += 1
-        src, dst = dst, src
-        swapped = not swapped
-        run *= 2
-    if swapped:
-        order[:n] = work[:n]
+        start = end
 
 
 @jit
@@ -134,7 +119,6 @@ def first_leg(
     pick, logw, theta = found
     key = np.empty(widest)
     order = np.empty(widest, dtype=np.int64)
-    work = np.empty(widest, dtype=np.int64)
     step = 2.0 * nats + 2.0
     count = 0
     for b in range(len(cuts) - 1):
@@ -152,7 +136,7 @@ def first_leg(
                     pick[kept], logw[kept], theta[kept] = pick[m], logw[m], theta[m]
                     key[kept] = group * step + (floor + nats - logw[m])
                     kept += 1
-            _stable_order(key, kept, order, work)
+            _stable_order(key, kept, order)
             for m in range(kept):
                 q = order[m]
                 out_slot[count], out_pick[count] = r, pick[q]
