@@ -159,41 +159,39 @@ def _at(a: np.ndarray, k: int) -> float:
 
 
 @jit
-def anchored_known(
+def known_children(
     track: np.ndarray,
     fields: np.ndarray,
     pos_var: np.ndarray,
     scale: np.ndarray,
     robot: np.ndarray,
     d: np.ndarray,
-    offsets: np.ndarray,
-    j_pair: np.ndarray,
+    cand: np.ndarray,
     rows: np.ndarray,
     numbers: np.ndarray,
     orientation: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The gate and the Kalman step of ``Builder.anchored`` when every track knows its heading
-    and scale and carries no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
+    """The gate and the Kalman step of tracks that all know their heading and scale and carry
+    no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
     :func:`~anonloc_env.identify.kernels.known_children`'s arithmetic up to its ``log``.
 
-    Tracks ``track`` ``(2, H)``: each one's robot and row of the previous picture; ``fields``
+    Tracks ``track`` ``(3, H)``: each one's robot, and the range ``track[1, h]:track[2, h]`` of
+    ``cand`` that holds its candidate rows of the new picture ``rows``; ``fields``
     ``(4, H)``: its ``pos`` x and y, ``theta`` and ``p_tt``; ``pos_var`` and ``scale``
     ``(H,)``, or ``(1,)`` where every track holds them alike. Per robot, ``robot`` ``(4, n)``:
-    ``dphi``, the gate's worst variance, ``var_d`` and ``var_dphi``; ``d`` ``(n, 2)``. The pairs
-    of previous row ``r`` are ``offsets[r]:offsets[r + 1]``, their new rows ``j_pair``.
+    ``dphi``, the gate's worst variance, ``var_d`` and ``var_dphi``; ``d`` ``(n, 2)``.
     ``numbers``: the pixel variance, the scale spread, the detected heading's variance and the
     gate's chi-square.
 
-    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and pair; ``out``
-    ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis term, the heading
-    and its variance after the step."""
+    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and place in
+    ``cand``; ``out`` ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis
+    term, the heading and its variance after the step."""
     pix_var, spread_s, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
-    slot_of, row_of = track[0], track[1]
+    slot_of, lo, hi = track[0], track[1], track[2]
     h_count = slot_of.shape[0]
     total = 0
     for h in range(h_count):
-        r = row_of[h]
-        total += offsets[r + 1] - offsets[r]
+        total += hi[h] - lo[h]
     index = np.empty((2, total), dtype=np.int64)
     out = np.empty((4, total))
     k = 0
@@ -210,9 +208,8 @@ def anchored_known(
         spread = (robot[1, i] + _at(pos_var, h)) + sr * sr * ptt
         turn_c = th + robot[0, i]
         turn_var = ptt + robot[3, i] + theta_var
-        r = row_of[h]
-        for q in range(offsets[r], offsets[r + 1]):
-            j = j_pair[q]
+        for q in range(lo[h], hi[h]):
+            j = cand[q]
             dx = rows[j, 0] - c0
             dy = rows[j, 1] - c1
             chi2 = dx * dx + dy * dy
@@ -308,9 +305,9 @@ def load() -> None:
     ones = np.ones
     leg = (one, ones((10, 1)), ones((5, 1)), ones((2, 1)), (True, True), ones((3, 1)), ones(5))
     first_leg(two, one, one, one + 1, leg)
-    anchored_known(
-        np.zeros((2, 1), dtype=np.int64), ones((4, 1)), ones(1), ones(1), ones((4, 1)),
-        ones((1, 2)), two, one, ones((1, 3)), ones(4), True,
+    known_children(
+        np.array([[0], [0], [1]]), ones((4, 1)), ones(1), ones(1), ones((4, 1)), ones((1, 2)),
+        one, ones((1, 3)), ones(4), True,
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
     _LOADED.append(True)

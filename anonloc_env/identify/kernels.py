@@ -418,56 +418,60 @@ def _general_kalman(
     child.log_s[g], child.p_ts[g], child.p_ss[g] = out.log_s, out.p_ts, out.p_ss
 
 
-def anchored_compiled(
-    tracks: Tracks, anchored: np.ndarray, pairs: Pairs, links: Links | None, scoring: Scoring
-) -> Tracks:
-    """``Builder.anchored`` when every track of ``anchored`` knows its heading and scale and
-    carries no motion, by the compiled kernels (the same floats): the gate of ``Gate.of``
-    and ``Gate.passes``, then :func:`known_children`, the general Kalman step for the candidates
-    it hands there, the detected heading and the prune, in one pass over the candidates
-    instead of blocks of numpy calls."""
-    prev, rows, i_pair, j_pair, interval, pix_var, _ = pairs
-    model = scoring.model
-    sub = tracks.select(anchored)
-    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
-    var_d, var_dphi = interval.variances(model.odometry_noise)
-    n = len(interval.d)
-    robot = np.stack(
-        [interval.dphi, worst_variance(np.arange(n), interval, model, pix_var), var_d, var_dphi]
-    )
-    index, out = fused.anchored_known(
-        np.stack([sub.slot, sub.row]).astype(np.int64),
-        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
-        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
-        np.ascontiguousarray(s, dtype=np.float64),
-        robot,
-        np.ascontiguousarray(interval.d, dtype=np.float64),
-        np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left").astype(np.int64),
-        j_pair.astype(np.int64),
-        np.ascontiguousarray(rows, dtype=np.float64),
-        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
-        bool(model.orientation),
-    )
-    return _finish_compiled(sub, index, out, pairs, links, scoring)
-
-
-def _finish_compiled(
+def known_compiled(
     sub: Tracks,
-    index: np.ndarray,
-    out: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    cand: np.ndarray,
     pairs: Pairs,
     links: Links | None,
     scoring: Scoring,
 ) -> Tracks:
-    """What :func:`anchored_compiled` does after the gate and the Kalman step of
-    :func:`anonloc_env.identify.fused.anchored_known` (``index``, ``out``): the log, the
-    general Kalman step where :func:`known_children` takes it, then the detected heading, the
-    weights and the prune (:func:`anonloc_env.identify.fused.finish_known`)."""
-    _, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
+    """The children of tracks ``sub`` that all know their heading and scale and carry no motion,
+    track ``h``'s candidate rows ``cand[lo[h]:hi[h]]``, by the compiled kernels (the same
+    floats): the gate of ``Gate.of`` and ``Gate.passes``, then :func:`known_children` (which
+    equals :func:`~anonloc_env.identify.likelihood.children` for such tracks), the general Kalman
+    step for the candidates it hands there, the detected heading and the prune, in one pass
+    over the candidates instead of blocks of numpy calls. ``Builder.anchored`` and
+    ``Builder.from_missed`` take it."""
+    rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
     model = scoring.model
-    parent, pair = index[0], index[1]
+    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
+    var_d, var_dphi = interval.variances(model.odometry_noise)
+    n = len(interval.d)
+    worst = worst_variance(np.arange(n), interval, model, pix_var)
+    index, out = fused.known_children(
+        np.stack([sub.slot, lo, hi]).astype(np.int64),
+        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
+        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
+        np.ascontiguousarray(s, dtype=np.float64),
+        np.stack([interval.dphi, worst, var_d, var_dphi]),
+        np.ascontiguousarray(interval.d, dtype=np.float64),
+        cand.astype(np.int64),
+        np.ascontiguousarray(rows, dtype=np.float64),
+        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
+        bool(model.orientation),
+    )
+    return _finish_compiled(sub, index[0], cand[index[1]], pairs, links, scoring, out)
+
+
+def _finish_compiled(
+    sub: Tracks,
+    parent: np.ndarray,
+    cand: np.ndarray,
+    pairs: Pairs,
+    links: Links | None,
+    scoring: Scoring,
+    out: np.ndarray,
+) -> Tracks:
+    """What :func:`known_compiled` does after the gate and the Kalman step of
+    :func:`anonloc_env.identify.fused.known_children` (track ``parent[k]`` at row ``cand[k]``,
+    ``out``): the log, the general Kalman step where :func:`known_children` takes it, then the
+    detected heading, the weights and the prune
+    (:func:`anonloc_env.identify.fused.finish_known`)."""
+    rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
+    model = scoring.model
     count = len(parent)
-    cand = j_pair[pair]
     slot = sub.slot[parent]
     child = Child(
         loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
@@ -481,7 +485,7 @@ def _finish_compiled(
     if general.any():
         g = np.flatnonzero(general)
         _general_kalman(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
-    bg = np.array([log_bg]) if links is None else -links.detect(i_pair, j_pair)[pair]
+    bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
     if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
         orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
         logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
