@@ -289,6 +289,57 @@ def finish_known(
     return keep[:kept].copy(), logw
 
 
+@jit
+def general_kalman(x: np.ndarray, pix_var: float, spread: float) -> np.ndarray:
+    """:func:`~anonloc_env.identify.likelihood.kalman`'s general step (heading known, scale
+    known or estimated, unseen pushes) of candidates ``x`` ``(17, K)``: the parent's ``theta``,
+    ``log s``, ``p_tt``, ``p_ts``, ``p_ss`` and ``s = exp(log s)`` (numpy's), the robot's own
+    displacement ``d``, the displacement to the row, the push covariance ``(xx, xy, yy)``
+    (robot frame, m^2), the parent's position variance, the robot's ``var_d``, ``dphi`` and
+    ``var_dphi``. ``pix_var`` and ``spread`` (the model's scale spread) complete
+    ``Geometry.base_var``.
+
+    Returns ``(7, K)``: ``det S`` (whose ``log`` the caller takes), the Mahalanobis term, and
+    the new ``theta``, ``p_tt``, ``log s``, ``p_ts`` and ``p_ss``."""
+    count = x.shape[1]
+    out = np.empty((7, count))
+    quarter_c, quarter_s = math.cos(math.pi / 2.0), math.sin(math.pi / 2.0)
+    for k in range(count):
+        th, ls, ptt, pts, pss, s = x[0, k], x[1, k], x[2, k], x[3, k], x[4, k], x[5, k]
+        d0, d1, e_0, e_1 = x[6, k], x[7, k], x[8, k], x[9, k]
+        rho0 = math.hypot(d0, d1)
+        ss = spread * s * rho0
+        base = pix_var + x[13, k] + s * s * x[14, k] + ss * ss
+        cxx, cxy, cyy = x[10, k] * (s * s), x[11, k] * (s * s), x[12, k] * (s * s)
+        c, sn = math.cos(th), math.sin(th)
+        q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
+        q12 = c * sn * (cxx - cyy) + (c * c - sn * sn) * cxy
+        q22 = sn * sn * cxx + 2 * c * sn * cxy + c * c * cyy
+        p0 = (c * d0 - sn * d1) * s  # h(x) = s R(theta) d
+        p1 = (sn * d0 + c * d1) * s
+        t0 = quarter_c * p0 - quarter_s * p1  # dh/dtheta: h turned a quarter
+        t1 = quarter_s * p0 + quarter_c * p1
+        e0, e1 = e_0 - p0, e_1 - p1
+        a0, a1 = t0 * ptt + p0 * pts, t1 * ptt + p1 * pts  # H P, first column
+        b0, b1 = t0 * pts + p0 * pss, t1 * pts + p1 * pss  # second column
+        s11 = base + q11 + a0 * t0 + b0 * p0
+        s12 = q12 + a0 * t1 + b0 * p1
+        s22 = base + q22 + a1 * t1 + b1 * p1
+        det = s11 * s22 - s12 * s12
+        i11, i12, i22 = s22 / det, -s12 / det, s11 / det
+        out[0, k] = det
+        out[1, k] = e0 * e0 * i11 + 2 * e0 * e1 * i12 + e1 * e1 * i22
+        f0, f1 = i11 * e0 + i12 * e1, i12 * e0 + i22 * e1
+        at0, at1 = i11 * a0 + i12 * a1, i12 * a0 + i22 * a1
+        as0, as1 = i11 * b0 + i12 * b1, i12 * b0 + i22 * b1
+        out[2, k] = th + (a0 * f0 + a1 * f1) + x[15, k]
+        out[3, k] = compiled.maximum(ptt - (a0 * at0 + a1 * at1), 1e-14) + x[16, k]
+        out[4, k] = ls + (b0 * f0 + b1 * f1)
+        out[5, k] = pts - (a0 * as0 + a1 * as1)
+        out[6, k] = compiled.maximum(pss - (b0 * as0 + b1 * as1), 0.0)
+    return out
+
+
 _LOADED: list[bool] = []
 
 
@@ -310,4 +361,5 @@ def load() -> None:
         one, ones((1, 3)), ones(4), True,
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
+    general_kalman(ones((17, 1)), 1.0, 1.0)
     _LOADED.append(True)
