@@ -407,48 +407,35 @@ def _general_kalman(
     model: SensorModel,
 ) -> None:
     """Candidates ``g`` of ``child`` (parent tracks ``sub``, rows ``z``) scored by the general
-    :func:`~anonloc_env.identify.likelihood.kalman` instead."""
-    out = Child.start(sub)
-    kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
-    child.loglik[g], child.theta[g], child.p_tt[g] = out.loglik, out.theta, out.p_tt
-    # Own copies: the parents' fields may be shared.
-    child.log_s, child.p_ts, child.p_ss = (
-        np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
-    )
-    child.log_s[g], child.p_ts[g], child.p_ss[g] = out.log_s, out.p_ts, out.p_ss
-
-
-def _general_compiled(
-    child: Child,
-    g: np.ndarray,
-    sub: Tracks,
-    z: np.ndarray,
-    interval: Interval,
-    pix_var: float,
-    model: SensorModel,
-) -> None:
-    """:func:`_general_kalman` by :func:`anonloc_env.identify.fused.general_kalman` (the same
+    :func:`~anonloc_env.identify.likelihood.kalman` instead; by
+    :func:`anonloc_env.identify.fused.general_kalman` where the kernels are on (the same
     floats; ``exp`` and ``log`` taken by numpy around it)."""
-    count, slot = len(sub), sub.slot
-    log_s = np.broadcast_to(sub.log_s, (count,))
-    d = interval.d[slot]
-    var_d, var_dphi = interval.variances(model.odometry_noise)
-    cov = push_covariance(interval, model)[slot]
-    delta = z[:, :2] - sub.pos
-    x = np.empty((17, count))
-    x[0], x[1], x[2], x[3], x[4] = sub.theta, log_s, sub.p_tt, sub.p_ts, sub.p_ss
-    x[5] = np.exp(log_s)
-    x[6], x[7], x[8], x[9] = d[:, 0], d[:, 1], delta[:, 0], delta[:, 1]
-    x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
-    x[13], x[14], x[15], x[16] = sub.pos_var, var_d[slot], interval.dphi[slot], var_dphi[slot]
-    out = fused.general_kalman(x, pix_var, model.scale_spread)
-    child.loglik[g] = -LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1]
-    child.theta[g], child.p_tt[g] = out[2], out[3]
+    if compiled.mode() is None:
+        out = Child.start(sub)
+        kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
+        new = (out.loglik, out.theta, out.p_tt, out.log_s, out.p_ts, out.p_ss)
+    else:
+        count, slot = len(sub), sub.slot
+        log_s = np.broadcast_to(sub.log_s, (count,))
+        d = interval.d[slot]
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        cov = push_covariance(interval, model)[slot]
+        delta = z[:, :2] - sub.pos
+        x = np.empty((17, count))
+        x[0], x[1], x[2], x[3], x[4] = sub.theta, log_s, sub.p_tt, sub.p_ts, sub.p_ss
+        x[5] = np.exp(log_s)
+        x[6], x[7], x[8], x[9] = d[:, 0], d[:, 1], delta[:, 0], delta[:, 1]
+        x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+        x[13], x[14], x[15], x[16] = sub.pos_var, var_d[slot], interval.dphi[slot], var_dphi[slot]
+        step = fused.general_kalman(x, pix_var, model.scale_spread)
+        loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
+        new = (loglik, step[2], step[3], step[4], step[5], step[6])
+    child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
     # Own copies: the parents' fields may be shared.
     child.log_s, child.p_ts, child.p_ss = (
         np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
     )
-    child.log_s[g], child.p_ts[g], child.p_ss[g] = out[4], out[5], out[6]
+    child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
 
 
 def known_compiled(
@@ -517,7 +504,7 @@ def _finish_compiled(
     general = _needs_general(child.p_ts, child.p_ss, interval, slot)
     if general.any():
         g = np.flatnonzero(general)
-        _general_compiled(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
+        _general_kalman(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
     bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
     if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
         orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
