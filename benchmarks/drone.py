@@ -42,17 +42,29 @@ SEED0 = 1000
 
 
 def condition_config(
-    preset: str, n: int, landmarks: bool, source: str = "geometric", pixel_noise: float = 1.0
+    preset: str,
+    n: int,
+    landmarks: bool,
+    source: str = "geometric",
+    pixel_noise: float = 1.0,
+    view_margin: float = 0.0,
 ) -> Any:
     """The results' condition: ``preset``'s camera, N robots at 1 per m^2, ``pixel_noise``
-    (1 px in the results; more to see what a noisier fixed camera costs), no headings."""
+    (1 px in the results; more to see what a noisier fixed camera costs), no headings.
+    ``view_margin`` (m, each side; 0 in the results): a field of view wider than the arena by
+    that much, so that the drift carries no robot out of the picture."""
     side = math.sqrt(n)
     camera: dict[str, Any] = {"pixel_noise": pixel_noise, "orientation": False, "source": source}
     if landmarks:
         camera["landmarks"] = border_landmarks((side, side))
-    return anonloc_env.make_config(
+    config = anonloc_env.make_config(
         preset, n_robots=n, arena_size=(side, side), camera=camera, max_cycles=40 * PICTURES
     )
+    if view_margin > 0.0:
+        width = config.camera.scale * (side + 2.0 * view_margin)
+        camera_config = dataclasses.replace(config.camera, image_size=(width, width))
+        config = dataclasses.replace(config, camera=camera_config)
+    return config
 
 
 def _through(h: np.ndarray, uv: np.ndarray) -> np.ndarray:
@@ -69,6 +81,8 @@ class Tally:
     decided: int = 0
     wrong: int = 0
     pose_errors: list[float] = field(default_factory=list)
+    # Without landmarks: each picture's true pose error over the error the registration stated.
+    error_ratios: list[float] = field(default_factory=list)
     seconds: float = 0.0
 
 
@@ -109,9 +123,10 @@ def run_condition(
     episodes: int,
     source: str = "geometric",
     pixel_noise: float = 1.0,
+    view_margin: float = 0.0,
 ) -> Tally:
     """Play ``episodes`` episodes of one condition."""
-    config = condition_config(preset, n, landmarks, source, pixel_noise)
+    config = condition_config(preset, n, landmarks, source, pixel_noise, view_margin)
     tally = Tally()
     start = time.perf_counter()
     for k in range(episodes):
@@ -148,6 +163,10 @@ def tally_episode(env: Any, team: Any, seed: int, tally: Tally) -> None:
             error = _pose_error(env, team, state)
             if error is not None:
                 tally.pose_errors.append(error)
+                registration = getattr(team.localizer, "identifier", None)
+                registration = getattr(registration, "registration", None)
+                if registration is not None and registration.error > 0.0:
+                    tally.error_ratios.append(error / registration.error)
             if len(correct) >= PICTURES:
                 break
         if not env.agents:
@@ -159,10 +178,23 @@ def tally_episode(env: Any, team: Any, seed: int, tally: Tally) -> None:
     tally.pictures.append(float(first if first is not None else len(correct)))
 
 
-def worst_step(n: int, pictures: int, preset: str = "drone-hover") -> tuple[float, float]:
-    """The identifier's slowest and median picture update (s) at ``n`` robots under ``preset``
-    without landmarks (registration included), ``distinct`` motion."""
-    config = condition_config(preset, n, False)
+@dataclass
+class Steps:
+    """The identifier's picture updates of one timed episode (s), the registration's share of
+    each (s; 0 for a fixed camera), each picture's row count and tracks kept after it."""
+
+    seconds: list[float] = field(default_factory=list)
+    registration: list[float] = field(default_factory=list)
+    rows: list[int] = field(default_factory=list)
+    tracks: list[int] = field(default_factory=list)
+
+
+def worst_step(
+    n: int, pictures: int, preset: str = "drone-hover", view_margin: float = 0.0
+) -> Steps:
+    """Time the identifier's picture updates at ``n`` robots under ``preset`` without landmarks
+    (registration included), ``distinct`` motion, seed :data:`SEED0`."""
+    config = condition_config(preset, n, False, view_margin=view_margin)
     # A drone over a 31 m arena flies higher than 5 m: at 1.25 times the side, the gimbal's left
     # tilt bends the picture's far edges by well under a pixel (a similarity still fits).
     config = dataclasses.replace(
@@ -172,15 +204,31 @@ def worst_step(n: int, pictures: int, preset: str = "drone-hover") -> tuple[floa
     env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
     team = baselines.make_team("bayes", env, excitation="distinct")
     identifier = team.localizer.identifier
-    times: list[float] = []
+    steps = Steps()
     update = identifier.update
+    registration = identifier.registration
+    register = registration.register if registration is not None else None
+    spent = [0.0]
+
+    def timed_register(rows: np.ndarray) -> np.ndarray:
+        start = time.perf_counter()
+        assert register is not None
+        out = register(rows)
+        spent[0] = time.perf_counter() - start
+        return out
 
     def timed(*args: Any, **kwargs: Any) -> None:
+        spent[0] = 0.0
         start = time.perf_counter()
         update(*args, **kwargs)
-        times.append(time.perf_counter() - start)
+        steps.seconds.append(time.perf_counter() - start)
+        steps.registration.append(spent[0])
+        steps.rows.append(0 if identifier.rows is None else len(identifier.rows))
+        steps.tracks.append(len(identifier.tracks))
 
     identifier.update = timed
+    if registration is not None:
+        registration.register = timed_register
     tally_pictures = Tally()
     global PICTURES
     PICTURES, saved = pictures, PICTURES
@@ -188,7 +236,33 @@ def worst_step(n: int, pictures: int, preset: str = "drone-hover") -> tuple[floa
         tally_episode(env, team, SEED0, tally_pictures)
     finally:
         PICTURES = saved
-    return max(times), float(np.median(times))
+    return steps
+
+
+def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[str, Any]]:
+    """The fixed camera and ``drone-hover`` alternated in one process, ``repetitions`` times each,
+    after one untimed warm-up of each (the compiled kernels load at their first call)."""
+    for preset in ("default", "drone-hover"):
+        worst_step(n, 3, preset, view_margin)
+    rows = []
+    for rep in range(repetitions):
+        for preset in ("default", "drone-hover"):
+            steps = worst_step(n, 12, preset, view_margin)
+            row = {
+                "n": n,
+                "camera": preset,
+                "view_margin": view_margin,
+                "rep": rep,
+                "worst_step_s": max(steps.seconds),
+                "median_step_s": float(np.median(steps.seconds)),
+                "worst_registration_s": max(steps.registration),
+                "step_s": steps.seconds,
+                "rows": steps.rows,
+                "tracks": steps.tracks,
+            }
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
 
 
 def table(files: list[Path]) -> str:
@@ -202,6 +276,7 @@ def table(files: list[Path]) -> str:
         and not r["landmarks"]
         and r.get("source") == "geometric"
         and r.get("pixel_noise", 1.0) == 1.0
+        and not r.get("view_margin", 0.0)
     }
     lines = [
         "| N | policy | camera | source | landmarks | reached 99 % / episodes "
@@ -213,8 +288,10 @@ def table(files: list[Path]) -> str:
         mean, low, high = r["pictures_to_99"]
         base = static.get((r["n"], r["policy"]))
         noise = r.get("pixel_noise", 1.0)
-        first = r["camera"] == "default" and not r["landmarks"] and noise == 1.0
+        margin = r.get("view_margin", 0.0)
+        first = r["camera"] == "default" and not r["landmarks"] and noise == 1.0 and not margin
         camera = r["camera"] if noise == 1.0 else f"{r['camera']}, {noise:g} px"
+        camera += f", view +{margin:g} m" if margin else ""
         delta = "" if base is None or first else f"{mean - base:+.2f}"
         wrong, decided = r["wrong"]
         share = 100.0 * wrong / decided if decided else 0.0
@@ -243,6 +320,12 @@ def main() -> None:
     parser.add_argument(
         "--pixel-noise", type=float, default=1.0, help="detector noise (px); 1 in the results"
     )
+    parser.add_argument(
+        "--view-margin",
+        type=float,
+        default=0.0,
+        help="field of view wider than the arena by this much each side (m); 0 in the results",
+    )
     parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
     parser.add_argument("--table", type=Path, nargs="*", help="print the docs' table of files")
     args = parser.parse_args()
@@ -250,15 +333,7 @@ def main() -> None:
         print(table(args.table))
         return
     if args.worst_step:
-        rows = []
-        for rep in range(2):  # the fixed camera and the drone alternated in one process
-            for preset in ("default", "drone-hover"):
-                worst, median = worst_step(args.n, 12, preset)
-                row = {"n": args.n, "camera": preset, "rep": rep, "worst_step_s": worst}
-                row["median_step_s"] = median
-                rows.append(row)
-                print(json.dumps(row), flush=True)
-        args.out.write_text(json.dumps(rows, indent=1))
+        _write(args.out, time_steps(args.n, args.view_margin))
         return
     rows = []
     choices = {"both": (False, True), "no": (False,), "yes": (True,)}[args.landmarks]
@@ -266,7 +341,14 @@ def main() -> None:
         for preset in args.preset or ["default", "drone-hover", "drone-windy"]:
             for landmarks in choices:
                 t = run_condition(
-                    preset, args.n, landmarks, policy, args.episodes, args.source, args.pixel_noise
+                    preset,
+                    args.n,
+                    landmarks,
+                    policy,
+                    args.episodes,
+                    args.source,
+                    args.pixel_noise,
+                    args.view_margin,
                 )
                 mean = bootstrap_mean(t.pictures)
                 pose = float(np.sqrt(np.mean(np.square(t.pose_errors)))) if t.pose_errors else 0.0
@@ -277,6 +359,7 @@ def main() -> None:
                     "landmarks": landmarks,
                     "source": args.source,
                     "pixel_noise": args.pixel_noise,
+                    "view_margin": args.view_margin,
                     "episodes": args.episodes,
                     "pictures_to_99": [mean.mean, mean.low, mean.high],
                     "reached_99": t.reached,
@@ -285,13 +368,23 @@ def main() -> None:
                     "pose_error_p95": float(np.quantile(t.pose_errors, 0.95))
                     if t.pose_errors
                     else 0.0,
+                    "error_ratio_quantiles": [
+                        float(q) for q in np.quantile(t.error_ratios, [0.5, 0.9, 0.99])
+                    ]
+                    if t.error_ratios
+                    else None,
                     "seconds": t.seconds,
                 }
                 rows.append(row)
                 print(json.dumps(row), flush=True)
-                tmp = args.out.with_suffix(".tmp")
-                tmp.write_text(json.dumps(rows, indent=1))
-                os.replace(tmp, args.out)
+                _write(args.out, rows)
+
+
+def _write(path: Path, rows: list[dict[str, Any]]) -> None:
+    """``rows`` as JSON at ``path``, atomically."""
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(rows, indent=1))
+    os.replace(tmp, path)
 
 
 if __name__ == "__main__":

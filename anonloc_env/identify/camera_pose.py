@@ -67,6 +67,12 @@ DIRECTED_SHARE = 0.35
 ERROR_FACTOR = 1.6
 #: Fewest pairs a robust scale (or the typical displacement) is taken from.
 MIN_PAIRS = 4
+#: A picture's robust scales are shrunk towards the running ones (from the pictures before) as
+#: if those were this many pairs: a scale from a handful of pairs is too noisy to trust, and
+#: when the fit locks onto a few pairs that agree by chance it is also too small.
+SCALE_PRIOR_PAIRS = 8.0
+#: Weight of the newest picture in the running robust scales (an exponential average).
+SCALE_MEMORY = 0.2
 #: Median length of a two-dimensional standard Gaussian vector: ``sqrt(2 ln 2)``.
 RAYLEIGH_MEDIAN = math.sqrt(2.0 * math.log(2.0))
 
@@ -224,6 +230,8 @@ class Registration:
         self._previous: np.ndarray | None = None  # registered (u, v) of the previous picture
         self._motion: np.ndarray | None = None  # each previous row's last displacement (or nan)
         self._step: float | None = None  # the team's typical displacement (image units)
+        # Running robust scales of the directed pairs and of the others (None: none yet).
+        self._scales: list[float | None] = [None, None]
 
     @property
     def pixel_var(self) -> float:
@@ -244,10 +252,16 @@ class Registration:
         transform = self.transform.copy()
         transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
         pairs = None
+        scales: list[float | None] = [None, None]
         for _ in range(2):
             pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
-            transform, self.error = self._fit(rows[:, :2], pairs, guess, transform)
+            transform, self.error, scales = self._fit(rows[:, :2], pairs, guess, transform)
         self.transform = transform
+        for k, scale in enumerate(scales):
+            old = self._scales[k]
+            if scale is not None:
+                mixed = (1.0 - SCALE_MEMORY) * old**2 + SCALE_MEMORY * scale**2 if old else None
+                self._scales[k] = scale if mixed is None else math.sqrt(mixed)
         registered = apply(transform, self.prior.centre, rows)
         self._remember(registered, pairs)
         return registered
@@ -320,9 +334,11 @@ class Registration:
         pairs: tuple[np.ndarray, np.ndarray],
         guess: tuple[np.ndarray, ...],
         start: np.ndarray,
-    ) -> tuple[np.ndarray, float]:
+    ) -> tuple[np.ndarray, float, list[float | None]]:
         """The transform's maximum a posteriori fit to the pairs (Cauchy-reweighted, 3 rounds,
-        the guesses' spreads rescaled to the residuals after the first) and its error."""
+        the guesses' spreads rescaled to the residuals after the first, shrunk towards the
+        running scales), its error and this picture's robust scales of the directed pairs and
+        the others (``None`` where too few)."""
         i, j = pairs
         target, sigma0, directed = guess
         cu, cv = self.prior.centre
@@ -337,11 +353,13 @@ class Registration:
         transform, sigma = start, sigma0[j]
         prior_w = self._change_w + self._absolute_w
         normal = np.diag(prior_w)
+        scales: list[float | None] = [None, None]
         for round_ in range(3):
             residual = (observed - design @ transform).reshape(-1, 2)
             norm = np.hypot(residual[:, 0], residual[:, 1])
             if round_:
-                sigma = _rescaled(norm, sigma0[j], directed[j], _residual_floor(self.prior))
+                floor = _residual_floor(self.prior)
+                sigma, scales = _rescaled(norm, sigma0[j], directed[j], floor, self._scales)
             weight = 1.0 / (sigma**2 * (1.0 + (norm / (CAUCHY_SIGMAS * sigma)) ** 2))
             w2 = np.repeat(weight, 2)
             normal = design.T @ (w2[:, None] * design)
@@ -352,7 +370,7 @@ class Registration:
         cov = np.linalg.inv(normal)
         spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
         error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
-        return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0))
+        return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0)), scales
 
     def _remember(
         self, registered: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None
@@ -386,16 +404,33 @@ def _residual_floor(prior: RegistrationPrior) -> float:
 
 
 def _rescaled(
-    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float
-) -> np.ndarray:
+    norm: np.ndarray,
+    sigma: np.ndarray,
+    directed: np.ndarray,
+    floor: float,
+    running: list[float | None],
+) -> tuple[np.ndarray, list[float | None]]:
     """The guesses' spreads ``sigma`` set, for the directed and the other pairs apart where
-    each has :data:`MIN_PAIRS`, to their residuals' robust scale: the median residual length
-    over a two-dimensional Gaussian's (:data:`RAYLEIGH_MEDIAN`)."""
+    each has :data:`MIN_PAIRS`, to their residuals' robust scale (the median residual length
+    over a two-dimensional Gaussian's, :data:`RAYLEIGH_MEDIAN`), shrunk towards the
+    ``running`` scale of the group where there is one (weighed as :data:`SCALE_PRIOR_PAIRS`
+    pairs); and the robust scales themselves (``None`` where too few pairs)."""
     out = sigma.copy()
-    for group in (directed, ~directed):
-        if int(group.sum()) >= MIN_PAIRS:
-            out[group] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
-    return out
+    scales: list[float | None] = [None, None]
+    for k, group in enumerate((directed, ~directed)):
+        count = int(group.sum())
+        if count >= MIN_PAIRS:
+            scales[k] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
+        now = scales[k] if scales[k] is not None else (float(sigma[group][0]) if count else None)
+        before = running[k]
+        if now is None:
+            continue
+        if before is not None:
+            now = math.sqrt(
+                (SCALE_PRIOR_PAIRS * before**2 + count * now**2) / (SCALE_PRIOR_PAIRS + count)
+            )
+        out[group] = now
+    return out, scales
 
 
 def _best(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:

@@ -89,6 +89,11 @@ class GapSettings:
                 f"back_time must be (low, high) with 0 <= low <= high s, got {self.back_time}"
             )
 
+    def escape(self) -> DistinctSettings:
+        """The settings of :class:`Escape` (the unsure robots' back-off; also the bump reflex of
+        a pressed robot in the candidate excitations, ``baselines.excitations.reflex``)."""
+        return DistinctSettings(self.speed, self.turn, self.back_speed, self.back_time)
+
 
 class Escape(BackOff):
     """The back-off of an unsure robot in a crowd: reverse slowly while turning at the full
@@ -111,8 +116,7 @@ class GapSeeking(Excitation):
     def __init__(self, settings: GapSettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GapSettings()
-        s = self.settings
-        self.backoff = Escape(DistinctSettings(s.speed, s.turn, s.back_speed, s.back_time))
+        self.backoff = Escape(self.settings.escape())
         self._camera: Camera | None = None
         self._config: EnvConfig | None = None
 
