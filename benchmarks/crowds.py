@@ -20,7 +20,8 @@ Subcommands:
   right at every picture, its largest fall after 95 %, and the reliability table (top belief
   against how often the top row is right) pooled per density; ``--json`` writes them;
   ``--no-escape`` plays the candidate excitations (``greedy``, ``uniform``, the agent) with the
-  back-off before their bump reflex (``baselines.excitations.reflex``).
+  back-off before their bump reflex (``baselines.excitations.reflex``); ``--gaps-wait S``
+  plays ``gaps`` with another wait limit (``GapSettings.wait``).
 * ``plot``: the reliability curves per density and the share right over time, from that JSON.
 * ``record``: writes one crowded episode's pictures and motion (the test's recorded episode).
 
@@ -54,7 +55,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.odometry import Interval
-from baselines.excitations import BumpReflex, Excitation
+from baselines.excitations import BumpReflex, Excitation, GapSeeking, GapSettings
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, run_episode
 from baselines.scoring import bootstrap_mean, summarize
@@ -444,6 +445,7 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument(
         "--no-escape", action="store_true", help="the candidate excitations without the bump reflex"
     )
+    r.add_argument("--gaps-wait", type=float, help="gaps' wait limit (s; inf: none)")
     t = sub.add_parser("table", help="the markdown table of a results JSON")
     t.add_argument("results")
     p = sub.add_parser("plot")
@@ -475,6 +477,8 @@ def main(argv: list[str] | None = None) -> None:
         names += list(extra)
         if args.no_escape:
             extra = without_escape(names, extra)
+        if args.gaps_wait is not None:
+            extra["gaps"] = functools.partial(GapSeeking, GapSettings(wait=args.gaps_wait))
         print(
             "| robots/m² | N | excitation | pictures to 99 % | reached | wrong | fall after 95 % |"
         )
