@@ -29,19 +29,30 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from typing import Any
 
 import numpy as np
 
-#: The kernels below, in the order they are compiled (callees first).
-_KERNELS: list[str] = []
+#: The kernels, as ``(module, name)``, in the order they are marked (callees first): those below
+#: and those of other modules marked with :func:`jit` (the identifier's, in
+#: :mod:`anonloc_env.identify.fused`).
+_KERNELS: list[tuple[str, str]] = []
+#: :func:`mode`'s answer, once asked.
+_MODE: list[bool | None] = []
 
 
-def _jit(function: Any) -> Any:
-    """Mark ``function`` as a kernel: :func:`mode` replaces it with its compiled form
-    (``numba.njit(cache=True)``) when the kernels are first asked for; until then, and without
-    numba, it stays the plain function, which nothing calls (the callers check :func:`mode`)."""
-    _KERNELS.append(function.__name__)
+def jit(function: Any) -> Any:
+    """Mark ``function`` as a kernel: :func:`mode` replaces it, in its module, with its compiled
+    form (``numba.njit(cache=True)``) when the kernels are first asked for; until then, and
+    without numba, it stays the plain function, which nothing calls (the callers check
+    :func:`mode`). A module that marks kernels must be imported before :func:`mode` is first
+    asked, or its kernels are compiled as they are marked."""
+    _KERNELS.append((function.__module__, function.__name__))
+    if _MODE and _MODE[0] is not None:  # the kernels already started: compile it now
+        import numba
+
+        return numba.njit(cache=True, nogil=True, error_model="numpy")(function)
     return function
 
 
@@ -88,8 +99,8 @@ def numpy_fuses() -> bool | None:
     return True if fused and not plain else False if plain and not fused else None
 
 
-@_jit
-def _maximum(a: float, b: float) -> float:
+@jit
+def maximum(a: float, b: float) -> float:
     """``np.maximum`` of two floats: NaN if either is."""
     if a != a:
         return a
@@ -98,7 +109,7 @@ def _maximum(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@_jit
+@jit
 def _minimum(a: float, b: float) -> float:
     """``np.minimum`` of two floats: NaN if either is."""
     if a != a:
@@ -108,17 +119,17 @@ def _minimum(a: float, b: float) -> float:
     return a if a <= b else b
 
 
-@_jit
+@jit
 def _clamp(state: np.ndarray, n: int, low: np.ndarray, high: np.ndarray) -> None:
     """``World._clamp_to_arena``: every centre within its limits (``low`` ``(N, 1)``, ``high``
     ``(N, 2)``)."""
     for k in range(n):
         bottom = low[k, 0]
-        state[k, 0] = _minimum(_maximum(state[k, 0], bottom), high[k, 0])
-        state[k, 1] = _minimum(_maximum(state[k, 1], bottom), high[k, 1])
+        state[k, 0] = _minimum(maximum(state[k, 0], bottom), high[k, 0])
+        state[k, 1] = _minimum(maximum(state[k, 1], bottom), high[k, 1])
 
 
-@_jit
+@jit
 def move(
     read: np.ndarray,
     state: np.ndarray,
@@ -155,7 +166,7 @@ def move(
     _clamp(state, n, low, high)
 
 
-@_jit
+@jit
 def record(
     read: np.ndarray,
     state: np.ndarray,
@@ -177,11 +188,11 @@ def record(
         along, across = _cmul(a, b, heading[k].real, -heading[k].imag, fused)  # * conj(e)
         forward[k] = along
         turned[k] = state[k, 2] - read[k, 2]
-        worst[k, 0] = _maximum(worst[k, 0], abs(along - travel[k]))
-        worst[k, 1] = _maximum(worst[k, 1], abs(across - 0.0))
+        worst[k, 0] = maximum(worst[k, 0], abs(along - travel[k]))
+        worst[k, 1] = maximum(worst[k, 1], abs(across - 0.0))
 
 
-@_jit
+@jit
 def _cmul(a: float, b: float, c: float, d: float, fused: bool) -> tuple[float, float]:
     """``(a + ib) (c + id)`` as numpy's complex multiply computes it: with fused multiply-adds
     (``fused``: ``fma(a, c, -b d)``, ``fma(a, d, b c)``, numpy's SIMD loops on x86-64 with FMA)
@@ -191,7 +202,7 @@ def _cmul(a: float, b: float, c: float, d: float, fused: bool) -> tuple[float, f
     return a * c - b * d, a * d + b * c
 
 
-@_jit
+@jit
 def _moved(state: np.ndarray, n: int, before: np.ndarray) -> float:
     """``separation._moved``: the largest move along either axis from ``before`` ``(N, 2)``."""
     largest = 0.0
@@ -199,12 +210,12 @@ def _moved(state: np.ndarray, n: int, before: np.ndarray) -> float:
     for k in range(n):
         for axis in range(2):
             step = abs(state[k, axis] - before[k, axis])
-            largest = step if first else _maximum(largest, step)
+            largest = step if first else maximum(largest, step)
             first = False
     return largest
 
 
-@_jit
+@jit
 def _coords(
     state: np.ndarray, i: int, j: int, frames: np.ndarray, p: int, out: np.ndarray, fused: bool
 ) -> float:
@@ -215,12 +226,12 @@ def _coords(
     dy = state[j, 1] - state[i, 1]
     out[0], out[1] = _cmul(dx, dy, frames[p, 0], frames[p, 1], fused)
     out[2], out[3] = _cmul(dx, dy, frames[p, 2], frames[p, 3], fused)
-    wide0 = _maximum(abs(out[0]), abs(out[2]))
-    wide1 = _maximum(abs(out[1]), abs(out[3]))
-    return _maximum(wide0, wide1)
+    wide0 = maximum(abs(out[0]), abs(out[2]))
+    wide1 = maximum(abs(out[1]), abs(out[3]))
+    return maximum(wide0, wide1)
 
 
-@_jit
+@jit
 def separate(
     state: np.ndarray,
     n: int,
@@ -261,7 +272,7 @@ def separate(
         re, im = _cmul(frames[p, 0], frames[p, 1], frames[p, 2], -frames[p, 3], fused)
         limit[p] = (abs(re) + abs(im)) * half + offset
         push[p] = limit[p] - _coords(state, i, j, frames, p, coords, fused)
-        top = push[p] if p == 0 else _maximum(top, push[p])
+        top = push[p] if p == 0 else maximum(top, push[p])
     if not top > stop:
         return 0
     near = np.flatnonzero(push > margin)
@@ -275,7 +286,7 @@ def separate(
     return done
 
 
-@_jit
+@jit
 def _project(
     state: np.ndarray,
     n: int,
@@ -299,7 +310,7 @@ def _project(
         for p in range(count):
             i, j = pairs[p, 0], pairs[p, 1]
             push[p] = limit[p] - _coords(state, i, j, frames, p, coords[p], fused)
-            top = push[p] if p == 0 else _maximum(top, push[p])
+            top = push[p] if p == 0 else maximum(top, push[p])
         if not top > stop:
             return done
         for p in range(count):
@@ -314,7 +325,7 @@ def _project(
                 re, im = _cmul(re, im, 0.0, 1.0, fused)
             sign = -0.5 if coords[p, best] < 0.0 else 0.5
             re, im = _cmul(re, im, sign, 0.0, fused)
-            moves[p, 0], moves[p, 1] = _cmul(_maximum(push[p], 0.0), 0.0, re, im, fused)
+            moves[p, 0], moves[p, 1] = _cmul(maximum(push[p], 0.0), 0.0, re, im, fused)
         # np.bincount's order: every pair's move of i (negated), then every pair's move of j.
         total[:] = 0.0
         for p in range(count):
@@ -330,9 +341,6 @@ def _project(
             state[k, 1] += total[k, 1]
         _clamp(state, n, low, high)
     return most
-
-
-_MODE: list[bool | None] = []
 
 
 def mode() -> bool | None:
@@ -357,10 +365,10 @@ def _start() -> bool | None:
     fused = numpy_fuses() if _same_cos_sin() else None
     if fused is None:
         return None
-    names = globals()
-    names["_fma"] = _fma_intrinsic(numba)
-    for name in _KERNELS:
-        names[name] = numba.njit(cache=True, nogil=True)(names[name])
+    globals()["_fma"] = _fma_intrinsic(numba)
+    for module, name in _KERNELS:
+        names = sys.modules[module].__dict__
+        names[name] = numba.njit(cache=True, nogil=True, error_model="numpy")(names[name])
     return fused
 
 
@@ -374,7 +382,7 @@ def _same_cos_sin() -> bool:
     ]
 
 
-@_jit
+@jit
 def integrate(
     odo: np.ndarray,
     forward: np.ndarray,
@@ -402,7 +410,7 @@ def integrate(
             odo[k, 2] = phi + dth
 
 
-@_jit
+@jit
 def pairs_within(
     a: np.ndarray, b: np.ndarray, radius: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -433,7 +441,7 @@ def pairs_within(
     return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
 
 
-@_jit
+@jit
 def _block_sum(a: np.ndarray, start: int, n: int) -> float:
     """numpy's pairwise sum of ``a[start:start + n]``, ``n <= 128``: in order below 8 items,
     else eight running sums combined as a tree, then the rest in order."""
@@ -455,7 +463,7 @@ def _block_sum(a: np.ndarray, start: int, n: int) -> float:
     return res
 
 
-@_jit
+@jit
 def _sum(a: np.ndarray) -> float:
     """``a.sum()`` as numpy adds a row of at most 256 items: blocks of 128, halves above."""
     n = len(a)
@@ -466,7 +474,7 @@ def _sum(a: np.ndarray) -> float:
     return _block_sum(a, 0, half) + _block_sum(a, half, n - half)
 
 
-@_jit
+@jit
 def leave_out_sums(w: np.ndarray, w_end: float, powers: np.ndarray) -> np.ndarray:
     """``identify.others._leave_out_sums`` (its dynamic programme over the sets of used columns,
     every leave-out at once) for ``w`` ``(C, rows, columns)``, at most 8 columns; ``powers``

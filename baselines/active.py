@@ -35,8 +35,8 @@ duty tells it the shared command and the budget through
 backward), and the predicted displacements are those of ``shared + budget * deviation``, for
 the others too (they follow the same shared stream).
 
-After a bump the robot reverses out (a :class:`baselines.excitations.BackOff` it holds) and
-resumes its choice.
+After a bump the robot reverses out, or escapes when pressed (the bump reflex of
+:mod:`baselines.excitations.reflex` it holds), and resumes its choice.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from anonloc_env.identify import SensorModel, ring_loglik
-from baselines.excitations import BackOff, Excitation
+from baselines.excitations import Excitation
 from baselines.excitations.candidates import GreedySettings, candidate_commands
 from baselines.steps import BeliefView, Step
 
@@ -325,7 +325,7 @@ class GreedyIdentification(Excitation):
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GreedySettings()
-        self.backoff = BackOff(self.settings.back)
+        self.backoff = self.settings.reflex()
         self.base = (np.zeros(0), np.zeros(0))
         self.budget = 1.0
         self.following = False

@@ -18,7 +18,10 @@ Subcommands:
 * ``results``: the grid of densities, robot counts and excitations: pictures to 99 % (censored
   mean, 95 % bootstrap interval), episodes reaching 99 %, confident decisions wrong, the share
   right at every picture, its largest fall after 95 %, and the reliability table (top belief
-  against how often the top row is right) pooled per density; ``--json`` writes them.
+  against how often the top row is right) pooled per density; ``--json`` writes them;
+  ``--no-escape`` plays the candidate excitations (``greedy``, ``uniform``, the agent) with the
+  back-off before their bump reflex (``baselines.excitations.reflex``); ``--gaps-wait S``
+  plays ``gaps`` with another wait limit (``GapSettings.wait``).
 * ``plot``: the reliability curves per density and the share right over time, from that JSON.
 * ``record``: writes one crowded episode's pictures and motion (the test's recorded episode).
 
@@ -52,7 +55,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.odometry import Interval
-from baselines.excitations import Excitation
+from baselines.excitations import BumpReflex, Excitation, GapSeeking, GapSettings
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, run_episode
 from baselines.scoring import bootstrap_mean, summarize
@@ -110,6 +113,23 @@ class _PoseTap:
 def make_excitation(name: str, extra: Mapping[str, Callable[[], Excitation]]) -> Excitation:
     """A named excitation, or one of ``extra`` (e.g. the learned agent)."""
     return extra[name]() if name in extra else EXCITATIONS[name]()
+
+
+def without_escape(
+    names: Sequence[str], extra: Mapping[str, Callable[[], Excitation]]
+) -> dict[str, Callable[[], Excitation]]:
+    """``extra`` with every one of ``names`` made with the back-off before the bump reflex (a
+    pressed robot backs off as after a first bump; ``GreedySettings.escape=None``): the
+    candidate excitations as they were. The others are unchanged."""
+
+    def old(name: str) -> Excitation:
+        excitation = make_excitation(name, extra)
+        reflex = getattr(excitation, "backoff", None)
+        if isinstance(reflex, BumpReflex):
+            excitation.backoff = BumpReflex(reflex.settings, None)  # type: ignore[attr-defined]
+        return excitation
+
+    return {**extra, **{name: functools.partial(old, name) for name in names}}
 
 
 def play(
@@ -422,6 +442,10 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument("--episodes", type=int, default=4)
     r.add_argument("--first-seed", type=int, default=9000)
     r.add_argument("--json")
+    r.add_argument(
+        "--no-escape", action="store_true", help="the candidate excitations without the bump reflex"
+    )
+    r.add_argument("--gaps-wait", type=float, help="gaps' wait limit (s; inf: none)")
     t = sub.add_parser("table", help="the markdown table of a results JSON")
     t.add_argument("results")
     p = sub.add_parser("plot")
@@ -451,6 +475,10 @@ def main(argv: list[str] | None = None) -> None:
     elif args.command == "results":
         names, extra = list(args.excitations), _agent(args.agent)
         names += list(extra)
+        if args.no_escape:
+            extra = without_escape(names, extra)
+        if args.gaps_wait is not None:
+            extra["gaps"] = functools.partial(GapSeeking, GapSettings(wait=args.gaps_wait))
         print(
             "| robots/m² | N | excitation | pictures to 99 % | reached | wrong | fall after 95 % |"
         )

@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 
 import anonloc_env
+from baselines.excitations.uniform import UniformChoice
+from baselines.steps import Step
 
 #: The repository's root (needs nothing but the standard library).
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,3 +44,16 @@ def rollout(
         actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
         out.append(env.step(actions))
     return out
+
+
+class RecordedUniform(UniformChoice):
+    """``uniform`` that keeps every command it gives (``given``: ``(v, w)`` per step)."""
+
+    def reset(self, rngs: list[np.random.Generator]) -> None:  # type: ignore[override]
+        super().reset(rngs)
+        self.given: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v, w = super().commands(step, dt)
+        self.given.append((v.copy(), w.copy()))
+        return v, w

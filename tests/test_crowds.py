@@ -93,10 +93,19 @@ def test_escape_turns_at_the_full_rate_both_ways() -> None:
     assert abs(int((rates > 0).sum()) - 200) <= 40
 
 
-def _commands(seed: int, n: int = 20, steps: int = 120) -> np.ndarray:
-    """``(steps, 2, n)`` commands of a ``gaps`` team at 4 robots per m^2."""
-    env = anonloc_env.AnonLocEnv(scenario(n, 8, 4.0), reward_fn=anonloc_env.EnergyCost())
-    excitation = GapSeeking()
+def _commands(
+    seed: int,
+    n: int = 20,
+    steps: int = 120,
+    density: float = 4.0,
+    settings: GapSettings | None = None,
+    pictures: list[bool] | None = None,
+) -> np.ndarray:
+    """``(steps, 2, n)`` commands of a ``gaps`` team at ``density`` robots per m^2 (whether
+    each step had a new picture appended to ``pictures``)."""
+    config = scenario(n, 8, density)
+    env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
+    excitation = GapSeeking(settings)
     team = baselines.make_team("bayes", env, excitation=excitation)
     seen = []
     commands = excitation.commands
@@ -104,11 +113,30 @@ def _commands(seed: int, n: int = 20, steps: int = 120) -> np.ndarray:
     def noted(step, dt):  # type: ignore[no-untyped-def]
         v, w = commands(step, dt)
         seen.append(np.stack([v, w]))
+        if pictures is not None:
+            pictures.append(step.new_picture)
         return v, w
 
     excitation.commands = noted  # type: ignore[method-assign]
     run_episode(env, team, seed, max_pictures=steps // 20)
     return np.array(seen)
+
+
+def _longest_wait(settings: GapSettings, seed: int) -> int:
+    """The most control steps a robot of a ``gaps`` team at 6 robots per m^2 stood still
+    (speed exactly 0: waiting for a gap) between two pictures."""
+    pictures: list[bool] = []
+    v = _commands(seed, n=30, steps=400, density=6.0, settings=settings, pictures=pictures)[:, 0]
+    interval = np.cumsum(pictures)
+    return max(int((v[interval == k] == 0.0).sum(axis=0).max()) for k in set(interval))
+
+
+def test_gaps_robots_wait_at_most_half_a_second_between_pictures() -> None:
+    """A robot sure of a wrong row takes itself for crowded and would wait with nothing to
+    correct it (``docs/crowds.md``): after ``wait`` (0.5 s, 10 steps) it drives as an unsure
+    robot until the next picture. Without the limit robots wait longer."""
+    assert _longest_wait(GapSettings(), seed=1) <= 11
+    assert _longest_wait(GapSettings(wait=math.inf), seed=1) > 11
 
 
 def test_gaps_is_bit_identical_for_a_seed_and_differs_between_seeds() -> None:
@@ -130,7 +158,14 @@ def test_gaps_commands_stay_in_the_box_and_some_robots_steer() -> None:
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("sure", 0.4), ("look", 0.0), ("gap", -1.0), ("steer", -0.1), ("speed", (0.3, 0.1))],
+    [
+        ("sure", 0.4),
+        ("look", 0.0),
+        ("gap", -1.0),
+        ("steer", -0.1),
+        ("speed", (0.3, 0.1)),
+        ("wait", -0.5),
+    ],
 )
 def test_gaps_refuses_bad_settings(field: str, value: object) -> None:
     with pytest.raises(ValueError, match=field):

@@ -16,6 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify import kernels
 from anonloc_env.identify.arrays import group_starts, rank_in_group
@@ -31,6 +32,14 @@ from anonloc_env.odometry import Interval
 MISSED_PER_ROBOT = 32
 #: Candidates of the anchored tracks scored per block (whole robots, about this many).
 ANCHORED_BLOCK = 65536
+
+
+def _all_known(tracks: Tracks, index: np.ndarray) -> bool:
+    """Whether every track ``index`` knows its heading and scale and carries no motion (what
+    :func:`~anonloc_env.identify.kernels.known_children` asks of a block)."""
+    sub = tracks.select(index)
+    known = np.isfinite(sub.theta).all() and np.isfinite(sub.log_s).all()
+    return bool(known and not (sub.turn.any() or sub.carry.any()))
 
 
 class Builder(NamedTuple):
@@ -59,6 +68,9 @@ class Builder(NamedTuple):
         temporaries stay small; each robot's children are pruned within its block, as they
         would be all at once."""
         prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
+        if self.fast and compiled.mode() is not None and _all_known(tracks, anchored):
+            links = self.prior.links
+            return kernels.anchored_compiled(tracks, anchored, pairs, links, self.scoring)
         # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
         offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
         row = tracks.row[anchored]

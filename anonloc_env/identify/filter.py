@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-from anonloc_env.identify import kernels
+from anonloc_env import compiled
+from anonloc_env.identify import fused, kernels
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
 from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
@@ -47,6 +48,8 @@ class Identifier:
         self.n = n_robots
         self.max_tracks = max_tracks
         self.fast = fast
+        if fast and compiled.mode() is not None:
+            fused.load()  # once per process, not at the first picture
         # A robot is never certain to be in a picture (it may leave the view): a floor of 1e-6
         # keeps its identity recoverable without costing more than one miss per track.
         self.log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
@@ -226,8 +229,9 @@ class Identifier:
             log_rows = float(np.logaddexp.reduce(self.row_bias))
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
-        if len(slot):
-            np.maximum.at(best, slot, logw)
+        for part in parts:  # np.maximum.at(best, slot, logw), one item per run of a robot
+            starts = group_starts(part.slot)
+            np.maximum.at(best, part.slot[starts], np.maximum.reduceat(part.logw, starts))
         lost = ~np.isfinite(best)
         if lost.any():  # the model ruled everything out (it does not fit): start over
             self.unanchored[lost] = 0.0

@@ -19,7 +19,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
+from anonloc_env.identify import fused
 from anonloc_env.identify.arrays import group_sizes, group_starts, is_shared, near_best, take_field
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, Gate, worst_variance
 from anonloc_env.identify.likelihood import (
@@ -123,35 +125,98 @@ def first_leg(
     s = math.exp(math.log(model.scale))  # the scale a parent track holds, as children reads it
     per_robot = _robot_terms(s, pairs, prior, scoring)
     frames = _frames(pairs)
-    out_slot = np.empty(total, dtype=np.int64)
-    out_pick = np.empty(total, dtype=np.int64)
-    out_logw = np.empty(total)
-    out_theta = np.empty(total)
-    count = 0
     # In blocks of whole robots small enough to stay in cache.
     ends = np.cumsum(counts)
     cuts = np.searchsorted(ends, np.arange(BLOCK, total, BLOCK), side="left")
     cuts = np.concatenate([[0], cuts, [len(robots)]])  # sorted: drop repeats without
     cuts = cuts[np.flatnonzero(np.diff(cuts, prepend=-1))]  # np.unique (it imports numpy.ma)
-    for lo, hi in zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True):
-        sl = np.repeat(robots[lo:hi], counts[lo:hi])
-        pk = by_length[expand_ranges(start[lo:hi], counts[lo:hi])]
-        sl, pk, logw, theta = _first_leg_block(sl, pk, s, per_robot, frames, pairs, prior, scoring)
-        end = count + len(sl)
-        out_slot[count:end], out_pick[count:end] = sl, pk
-        out_logw[count:end], out_theta[count:end] = logw, theta
-        count = end
-    slot, pick = out_slot[:count], out_pick[:count]
+    leg = _Leg(cuts, robots, start, counts, by_length, s, per_robot, frames, pairs, prior, scoring)
+    if compiled.mode() is not None:  # the same floats in one call
+        slot, pick, logw, theta = _first_leg_compiled(leg)
+        theta = wrap_angle(theta)
+    else:
+        slot, pick, logw, theta = _first_leg_blocks(leg)
     row = j_pair[pick]
     return Tracks.fresh(
         slot,
         row,
         rows[row, :2],
-        out_logw[:count],
+        logw,
         pos_var=pairs.pix_var,
-        theta=out_theta[:count],
+        theta=theta,
         p_tt=(per_robot.p_tt1 * (1 - per_robot.gain))[slot],
         log_s=math.log(s),
+    )
+
+
+class _Leg(NamedTuple):
+    """One first leg: robot ``robots[k]``'s candidates are the pairs
+    ``by_length[start[k]:start[k] + counts[k]]``, scored in blocks of robots
+    ``cuts[b]:cuts[b + 1]`` at the scale ``s``."""
+
+    cuts: np.ndarray
+    robots: np.ndarray
+    start: np.ndarray
+    counts: np.ndarray
+    by_length: np.ndarray
+    s: float
+    per_robot: _Robots
+    frames: _Frames
+    pairs: Pairs
+    prior: Prior
+    scoring: Scoring
+
+
+def _first_leg_blocks(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The first leg's blocks, each by :func:`_first_leg_block`: ``(slot, pair, log weight,
+    heading)`` of what is kept."""
+    counts, start, robots = leg.counts, leg.start, leg.robots
+    total = int(counts.sum())
+    out_slot = np.empty(total, dtype=np.int64)
+    out_pick = np.empty(total, dtype=np.int64)
+    out_logw = np.empty(total)
+    out_theta = np.empty(total)
+    count = 0
+    for lo, hi in zip(leg.cuts[:-1].tolist(), leg.cuts[1:].tolist(), strict=True):
+        sl = np.repeat(robots[lo:hi], counts[lo:hi])
+        pk = leg.by_length[expand_ranges(start[lo:hi], counts[lo:hi])]
+        sl, pk, logw, theta = _first_leg_block(
+            sl, pk, leg.s, leg.per_robot, leg.frames, leg.pairs, leg.prior, leg.scoring
+        )
+        end = count + len(sl)
+        out_slot[count:end], out_pick[count:end] = sl, pk
+        out_logw[count:end], out_theta[count:end] = logw, theta
+        count = end
+    return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
+
+
+def _first_leg_compiled(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_first_leg_blocks` by :func:`anonloc_env.identify.fused.first_leg` (the same
+    floats), less the final wrap of the headings."""
+    pairs, prior, by_length = leg.pairs, leg.prior, leg.by_length
+    per_pair = np.zeros((2, len(pairs.i_pair)))
+    if prior.links is not None:  # for every pair, added as _first_leg_block adds it
+        per_pair[0] = pairs.log_bg + prior.links.detect(pairs.i_pair, pairs.j_pair)
+    if prior.row_bias is not None:
+        per_pair[1] = prior.row_bias[pairs.i_pair]
+    d, dphi = pairs.interval.d, pairs.interval.dphi
+    model_scale = leg.scoring.model.scale
+    assert model_scale is not None
+    numbers = [leg.s, model_scale, leg.scoring.theta_var, GATE_CHI2, PRUNE_NATS]
+    return fused.first_leg(
+        leg.cuts,
+        leg.robots.astype(np.int64),
+        leg.start.astype(np.int64),
+        leg.counts.astype(np.int64),
+        (
+            by_length.astype(np.int64),
+            np.array(leg.per_robot),
+            np.array(leg.frames)[:, by_length],
+            per_pair[:, by_length],
+            (prior.links is not None, prior.row_bias is not None),
+            np.stack([d[:, 0], d[:, 1], dphi]),
+            np.array(numbers, dtype=np.float64),
+        ),
     )
 
 
@@ -249,7 +314,7 @@ def _first_leg_block(
     first = group_starts(sl)
     group = np.repeat(np.arange(len(first)), group_sizes(sl, first))
     key = group[keep] * (2.0 * PRUNE_NATS + 2.0) + (floor[keep] + PRUNE_NATS - logw[keep])
-    keep = keep[np.argsort(key)]  # deterministic; ties are equal weights
+    keep = keep[np.argsort(key, kind="stable")]  # ties in the order of the candidates
     sk = sl[keep]
     return sk, pk[keep], logw[keep], wrap_angle(theta1[keep] + r.gain[sk] * err[keep])
 
@@ -352,3 +417,101 @@ def _general_kalman(
         np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
     )
     child.log_s[g], child.p_ts[g], child.p_ss[g] = out.log_s, out.p_ts, out.p_ss
+
+
+def anchored_compiled(
+    tracks: Tracks, anchored: np.ndarray, pairs: Pairs, links: Links | None, scoring: Scoring
+) -> Tracks:
+    """``Builder.anchored`` when every track of ``anchored`` knows its heading and scale and
+    carries no motion, by the compiled kernels (the same floats): the gate of ``Gate.of``
+    and ``Gate.passes``, then :func:`known_children`, the general Kalman step for the candidates
+    it hands there, the detected heading and the prune, in one pass over the candidates
+    instead of blocks of numpy calls."""
+    prev, rows, i_pair, j_pair, interval, pix_var, _ = pairs
+    model = scoring.model
+    sub = tracks.select(anchored)
+    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
+    var_d, var_dphi = interval.variances(model.odometry_noise)
+    n = len(interval.d)
+    robot = np.stack(
+        [interval.dphi, worst_variance(np.arange(n), interval, model, pix_var), var_d, var_dphi]
+    )
+    index, out = fused.anchored_known(
+        np.stack([sub.slot, sub.row]).astype(np.int64),
+        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
+        np.ascontiguousarray(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),
+        np.ascontiguousarray(s, dtype=np.float64),
+        robot,
+        np.ascontiguousarray(interval.d, dtype=np.float64),
+        np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left").astype(np.int64),
+        j_pair.astype(np.int64),
+        np.ascontiguousarray(rows, dtype=np.float64),
+        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
+        bool(model.orientation),
+    )
+    return _finish_compiled(sub, index, out, pairs, links, scoring)
+
+
+def _finish_compiled(
+    sub: Tracks,
+    index: np.ndarray,
+    out: np.ndarray,
+    pairs: Pairs,
+    links: Links | None,
+    scoring: Scoring,
+) -> Tracks:
+    """What :func:`anchored_compiled` does after the gate and the Kalman step of
+    :func:`anonloc_env.identify.fused.anchored_known` (``index``, ``out``): the log, the
+    general Kalman step where :func:`known_children` takes it, then the detected heading, the
+    weights and the prune (:func:`anonloc_env.identify.fused.finish_known`)."""
+    _, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
+    model = scoring.model
+    parent, pair = index[0], index[1]
+    count = len(parent)
+    cand = j_pair[pair]
+    slot = sub.slot[parent]
+    child = Child(
+        loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
+        theta=out[2],
+        p_tt=out[3],
+        log_s=take_field(sub.log_s, parent, count),
+        p_ts=take_field(sub.p_ts, parent, count),
+        p_ss=take_field(sub.p_ss, parent, count),
+    )
+    general = _needs_general(child.p_ts, child.p_ss, interval, slot)
+    if general.any():
+        g = np.flatnonzero(general)
+        _general_kalman(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
+    bg = np.array([log_bg]) if links is None else -links.detect(i_pair, j_pair)[pair]
+    if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
+        orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
+        logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
+        return pruned(slot, cand, rows[cand], logw, child, pix_var)
+    log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
+    theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
+    keep, logw = fused.finish_known(
+        slot.astype(np.int64),
+        np.ascontiguousarray(rows[cand, 2]),
+        child.loglik,
+        theta,
+        p_tt,
+        log_var,
+        np.ascontiguousarray(sub.logw[parent]),
+        bg,
+        np.array([scoring.theta_var, math.log(2 * math.pi), scoring.log_pd, PRUNE_NATS]),
+        bool(model.orientation),
+    )
+    kept = len(keep)
+    c = cand[keep]
+    return Tracks.fresh(
+        slot[keep],
+        c,
+        rows[c, :2],
+        logw[keep],
+        pos_var=pix_var,
+        theta=wrap_angle(theta[keep]),
+        p_tt=p_tt[keep],
+        log_s=take_field(child.log_s, keep, kept),
+        p_ts=take_field(child.p_ts, keep, kept),
+        p_ss=take_field(child.p_ss, keep, kept),
+    )

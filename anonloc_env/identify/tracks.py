@@ -110,6 +110,13 @@ class Tracks:
             )
         )
 
+    def select(self, index: np.ndarray) -> Tracks:
+        """The tracks ``index`` (increasing, not empty): views where they are a range, else
+        :meth:`take`'s copies."""
+        if index[-1] - index[0] + 1 == len(index):
+            return self.window(int(index[0]), int(index[-1]) + 1)
+        return self.take(index)
+
     def window(self, start: int, stop: int) -> Tracks:
         """Tracks ``start:stop``, as views (nothing copied)."""
         return Tracks(*(getattr(self, f)[start:stop] for f in FIELDS))

@@ -16,9 +16,11 @@ Layout, one family a module (every name is importable from here):
 :mod:`~baselines.excitations.random_motion` (the paper's :class:`RandomMotion` and the
 :class:`BumpEscape` it shares with the swarm),
 :mod:`~baselines.excitations.swarm` (:class:`SwarmMotion`, :class:`SwarmDuty`),
-:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion` and its :class:`BackOff`) and
+:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion` and its :class:`BackOff`),
 :mod:`~baselines.excitations.gaps` (:class:`GapSeeking`, the crowd-aware one: it reads the
-beliefs and the picture to keep out of contact). The other active ones, which read the robots'
+beliefs and the picture to keep out of contact) and :mod:`~baselines.excitations.reflex`
+(:class:`BumpReflex`: the back-off of the candidate excitations, which escapes as ``gaps`` does
+when a robot is pressed). The other active ones, which read the robots'
 beliefs, are in :mod:`baselines.active`.
 """
 
@@ -32,6 +34,7 @@ from baselines.excitations.distinct import (
 from baselines.excitations.gaps import GapSeeking, GapSettings
 from baselines.excitations.paper import Angular, AngularSettings, Linear, LinearSettings
 from baselines.excitations.random_motion import BumpEscape, RandomMotion, RandomSettings
+from baselines.excitations.reflex import BumpReflex
 from baselines.excitations.swarm import SWARM_JITTER, SwarmDuty, SwarmMotion
 
 __all__ = [
@@ -40,6 +43,7 @@ __all__ = [
     "AngularSettings",
     "BackOff",
     "BumpEscape",
+    "BumpReflex",
     "DistinctMotion",
     "DistinctSettings",
     "Excitation",

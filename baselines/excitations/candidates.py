@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from baselines.excitations.base import Excitation
-from baselines.excitations.distinct import BackOff, DistinctSettings, check_command_box
+from baselines.excitations.distinct import DistinctSettings, check_command_box
+from baselines.excitations.gaps import GapSettings
+from baselines.excitations.reflex import BumpReflex
 from baselines.steps import Step
 
 
@@ -32,8 +34,12 @@ class GreedySettings:
         ring_samples: points per ring when the heading is unknown, >= 1.
         energy_weight: nats of expected entropy worth one metre of wheel travel, >= 0; a small
             value breaks ties (a robot sure of itself drives the cheapest candidate).
-        back: the back-off after a bump (only ``back_speed``, ``back_time`` and ``turn`` are
-            used).
+        back: the back-off after a first bump (only ``back_speed``, ``back_time`` and ``turn``
+            are used).
+        escape: the back-off of a pressed robot, whose bumper fires again after it fired in
+            the interval before (``baselines.excitations.reflex``; by default ``gaps``'
+            escape: 0.08 m/s for 0.7 to 1.2 s at the full turn rate of 1 rad/s); ``None``: as
+            after a first bump.
     """
 
     candidates: int = 8
@@ -45,6 +51,7 @@ class GreedySettings:
     ring_samples: int = 8
     energy_weight: float = 0.1
     back: DistinctSettings = field(default_factory=DistinctSettings)
+    escape: DistinctSettings | None = field(default_factory=lambda: GapSettings().escape())
 
     def __post_init__(self) -> None:
         for name in ("candidates", "hypotheses", "ring_samples"):
@@ -58,6 +65,10 @@ class GreedySettings:
             raise ValueError(f"energy_weight must be >= 0 nats/m, got {self.energy_weight}")
         if self.others is not None and len(self.others) == 0:
             raise ValueError("others must hold at least one command (v, w), or be None")
+
+    def reflex(self) -> BumpReflex:
+        """The bump reflex these settings describe (``back``, and ``escape`` when pressed)."""
+        return BumpReflex(self.back, self.escape)
 
     def other_commands(self, deviation: bool) -> np.ndarray:
         """``(S, 2)`` the other robots' commands (deviations on swarm duty)."""
@@ -97,18 +108,19 @@ def coin(rngs: Sequence[np.random.Generator], sides: int) -> np.ndarray:
 
 class HeldCommand(Excitation):
     """Base of the excitations that set one command per robot at every picture
-    (``on_picture`` sets ``self.v``, ``self.w``), hold it until the next, and reverse out of
-    bumps (a :class:`~baselines.excitations.BackOff`); on swarm duty ``self.following`` is
-    true from the reset on.
+    (``on_picture`` sets ``self.v``, ``self.w``), hold it until the next, reverse out of bumps
+    and escape them when pressed (a :class:`~baselines.excitations.reflex.BumpReflex`); on swarm
+    duty ``self.following`` is true from the reset on.
 
     Args:
-        settings: the box of the commands and the back-off (``GreedySettings()`` by default).
+        settings: the box of the commands and the bump reflex (``GreedySettings()`` by
+            default).
     """
 
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GreedySettings()
-        self.backoff = BackOff(self.settings.back)
+        self.backoff = self.settings.reflex()
         self.following = False
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:

@@ -75,6 +75,8 @@ class BackOff:
         """``(R,)`` time left reversing (s)."""
         self.rate = np.zeros(0)
         """``(R,)`` the turn rate while reversing (rad/s)."""
+        self.speed = np.zeros(0)
+        """``(R,)`` the speed of the reverse drive (m/s)."""
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         """Start an episode with the excitation's generators (one per robot; drawn in turn with
@@ -82,12 +84,26 @@ class BackOff:
         self.rngs = list(rngs)
         self.backing = np.zeros(len(self.rngs))
         self.rate = np.zeros(len(self.rngs))
+        self.speed = np.zeros(len(self.rngs))
 
     def turn_rates(self, hit: np.ndarray) -> list[float]:
         """The turn rates (rad/s) of the robots ``hit`` while they reverse: uniform in
         ``[-turn, turn]``, one draw each from its generator."""
         turn = self.settings.turn
         return [self.rngs[i].uniform(-turn, turn) for i in hit]
+
+    def note(self, step: Step) -> None:
+        """Called first at every step with what the robots observed (does nothing here)."""
+
+    def start(self, hit: np.ndarray) -> None:
+        """Start the back-off of the robots ``hit``: its duration, then its turn rate, drawn
+        from each robot's generator (two numbers per robot)."""
+        if not len(hit):
+            return
+        b = self.settings
+        self.backing[hit] = [self.rngs[i].uniform(*b.back_time) for i in hit]
+        self.rate[hit] = self.turn_rates(hit)
+        self.speed[hit] = b.back_speed
 
     def commands(
         self,
@@ -97,15 +113,13 @@ class BackOff:
     ) -> tuple[np.ndarray, np.ndarray]:
         """The commands of this step: ``own(hit)`` (the excitation's ``(v, w)``, told which
         robots ``hit`` just bumped), with those of the robots reversing replaced."""
+        self.note(step)
         hit = np.flatnonzero(step.bumper & (self.backing <= 0.0)) if step.bumper.any() else NOBODY
-        if len(hit):
-            b = self.settings
-            self.backing[hit] = [self.rngs[i].uniform(*b.back_time) for i in hit]
-            self.rate[hit] = self.turn_rates(hit)
+        self.start(hit)
         v, w = own(hit)
         backing = self.backing > 0.0
         self.backing = np.maximum(self.backing - dt, 0.0)
-        return np.where(backing, -self.settings.back_speed, v), np.where(backing, self.rate, w)
+        return np.where(backing, -self.speed, v), np.where(backing, self.rate, w)
 
 
 class DistinctMotion(Excitation):

@@ -1,0 +1,332 @@
+"""The identifier's compiled kernels (numba, the optional ``fast`` extra; see
+:mod:`anonloc_env.compiled`): loops over candidates that do, element by element and in the same
+order, what :mod:`anonloc_env.identify.kernels` does in whole-array numpy calls, so that each
+picture costs a few calls instead of a few hundred.
+
+They give the same floats to the bit: only ``+ - * /``, comparisons and ``rint`` happen inside
+them (IEEE-exact, whatever the order of the loop), each expression parenthesised as numpy
+evaluates it; the transcendentals (``log``, ``exp``, whose vectorised numpy forms differ from the
+C library's in the last bit) and the final wrap of the headings stay numpy calls around them.
+``tests/test_identify_fused.py`` runs both forms on the same pictures and compares every field.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from anonloc_env import compiled
+from anonloc_env.compiled import jit
+
+
+@jit
+def _wrap_fast(angle: float) -> float:
+    """:func:`~anonloc_env.identify.kernels.wrap_fast` of one angle (the same floats)."""
+    turns = np.rint(angle * (0.5 / math.pi))
+    turns = turns * (2.0 * math.pi)
+    return angle - turns
+
+
+@jit
+def _stable_order(key: np.ndarray, n: int, order: np.ndarray, work: np.ndarray) -> None:
+    """``order[:n]`` = ``np.argsort(key[:n], kind="stable")``, without allocating: runs of 16 by
+    insertion, then merged bottom-up (``work`` as long as ``order``)."""
+    for i in range(n):
+        order[i] = i
+    run = 16
+    for lo in range(0, n, run):
+        for i in range(lo + 1, min(lo + run, n)):
+            item = order[i]
+            j = i
+            while j > lo and key[order[j - 1]] > key[item]:
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = item
+    src, dst = order, work
+    swapped = False
+    while run < n:
+        for lo in range(0, n, 2 * run):
+            mid, hi = min(lo + run, n), min(lo + 2 * run, n)
+            i, j = lo, mid
+            for out in range(lo, hi):
+                if j >= hi or (i < mid and key[src[i]] <= key[src[j]]):
+                    dst[out] = src[i]
+                    i += 1
+                else:
+                    dst[out] = src[j]
+                    j += 1
+        src, dst = dst, src
+        swapped = not swapped
+        run *= 2
+    if swapped:
+        order[:n] = work[:n]
+
+
+@jit
+def _first_leg_robot(
+    r: int, lo: int, hi: int, leg: Any, found: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> tuple[int, float]:
+    """Robot ``r`` along the pairs ``by_length[lo:hi]`` of ``leg`` (see :func:`first_leg`): the
+    gate, the heading Kalman step and the detected heading of ``kernels._first_leg_block``.
+    Writes the pair, log weight and heading (before its wrap) of each candidate that passes
+    into ``found``; returns how many passed and the best log weight."""
+    by_length, per_robot, frames, per_pair, adds, motion, numbers = leg
+    s, scale, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
+    pick, logw, theta = found
+    dx, dy, dphi = motion[0, r], motion[1, r], motion[2, r]
+    a_r, b_r = per_robot[5, r], per_robot[4, r]
+    n = 0
+    best = -np.inf
+    for m in range(lo, hi):
+        ex = frames[0, m] - per_robot[0, r]
+        ey = frames[1, m] - per_robot[1, r]
+        e2 = ex * ex + ey * ey
+        turn = _wrap_fast(frames[3, m] - dphi)
+        chi2 = e2 / per_robot[2, r] + turn * turn / per_robot[3, r]
+        if not chi2 <= gate_chi2:
+            continue
+        if s != scale:
+            ex = frames[0, m] - s * dx
+            ey = frames[1, m] - s * dy
+            e2 = ex * ex + ey * ey
+        h_e = s * (dx * ey - dy * ex)
+        maha = (e2 - theta_var * h_e * h_e / a_r) / b_r
+        theta1 = frames[2, m] + theta_var * h_e / a_r + dphi
+        err = _wrap_fast(frames[4, m] - theta1)
+        w = per_robot[9, r] - 0.5 * maha - 0.5 * (err * err / per_robot[7, r])
+        if adds[0]:
+            w += per_pair[0, m]
+        if adds[1]:
+            w += per_pair[1, m]
+        pick[n], logw[n], theta[n] = by_length[m], w, theta1 + per_robot[8, r] * err
+        best = compiled.maximum(best, w)
+        n += 1
+    return n, best
+
+
+@jit
+def first_leg(
+    cuts: np.ndarray, robots: np.ndarray, start: np.ndarray, counts: np.ndarray, leg: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``kernels._first_leg_block`` over every block ``cuts[b]:cuts[b + 1]`` of robots, less the
+    final wrap of the headings: ``(slot, pair, log weight, heading before its wrap)`` of what is
+    kept, heaviest first within each robot (ties in the order of the candidates).
+
+    ``leg`` is ``(by_length, per_robot, frames, per_pair, adds, motion, numbers)``: robot
+    ``robots[k]``'s candidates are the pairs ``by_length[start[k]:start[k] + counts[k]]``;
+    ``per_robot`` ``(10, n)``: the fields of ``kernels._Robots`` in their order; ``frames``
+    ``(5, pairs)``: those of ``kernels._Frames`` in the order of ``by_length`` (so that each
+    robot reads a run); ``per_pair`` ``(2, pairs)``, in that order too: what the links and
+    the row bias add to a pair's weight, added in that order where ``adds`` says; ``motion``
+    ``(3, n)``: the interval's ``dx``, ``dy`` and ``dphi``; ``numbers``: the scale a track
+    holds, the model's scale, the detected heading's variance, the gate's chi-square and the
+    prune's nats."""
+    nats = leg[6][4]
+    total = counts.sum()
+    widest = counts.max() if len(counts) else 0
+    out_slot = np.empty(total, dtype=np.int64)
+    out_pick = np.empty(total, dtype=np.int64)
+    out_logw = np.empty(total)
+    out_theta = np.empty(total)
+    found = (np.empty(widest, dtype=np.int64), np.empty(widest), np.empty(widest))
+    pick, logw, theta = found
+    key = np.empty(widest)
+    order = np.empty(widest, dtype=np.int64)
+    work = np.empty(widest, dtype=np.int64)
+    step = 2.0 * nats + 2.0
+    count = 0
+    for b in range(len(cuts) - 1):
+        group = -1
+        for k in range(cuts[b], cuts[b + 1]):
+            r = robots[k]
+            n, best = _first_leg_robot(r, start[k], start[k] + counts[k], leg, found)
+            if n == 0:
+                continue
+            group += 1
+            floor = best - nats
+            kept = 0
+            for m in range(n):
+                if logw[m] >= floor:
+                    pick[kept], logw[kept], theta[kept] = pick[m], logw[m], theta[m]
+                    key[kept] = group * step + (floor + nats - logw[m])
+                    kept += 1
+            _stable_order(key, kept, order, work)
+            for m in range(kept):
+                q = order[m]
+                out_slot[count], out_pick[count] = r, pick[q]
+                out_logw[count], out_theta[count] = logw[q], theta[q]
+                count += 1
+    return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
+
+
+@jit
+def _wrap(angle: float) -> float:
+    """:func:`~anonloc_env.geometry.wrap_angle` of one angle (the same floats: ``np.mod`` and
+    Python's ``%`` both take ``fmod`` and move its result into the divisor's sign)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@jit
+def _at(a: np.ndarray, k: int) -> float:
+    """``a[k]``, or ``a[0]`` for a field held alike by every track (passed as one item)."""
+    return a[k] if a.shape[0] > 1 else a[0]
+
+
+@jit
+def anchored_known(
+    track: np.ndarray,
+    fields: np.ndarray,
+    pos_var: np.ndarray,
+    scale: np.ndarray,
+    robot: np.ndarray,
+    d: np.ndarray,
+    offsets: np.ndarray,
+    j_pair: np.ndarray,
+    rows: np.ndarray,
+    numbers: np.ndarray,
+    orientation: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The gate and the Kalman step of ``Builder.anchored`` when every track knows its heading
+    and scale and carries no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
+    :func:`~anonloc_env.identify.kernels.known_children`'s arithmetic up to its ``log``.
+
+    Tracks ``track`` ``(2, H)``: each one's robot and row of the previous picture; ``fields``
+    ``(4, H)``: its ``pos`` x and y, ``theta`` and ``p_tt``; ``pos_var`` and ``scale``
+    ``(H,)``, or ``(1,)`` where every track holds them alike. Per robot, ``robot`` ``(4, n)``:
+    ``dphi``, the gate's worst variance, ``var_d`` and ``var_dphi``; ``d`` ``(n, 2)``. The pairs
+    of previous row ``r`` are ``offsets[r]:offsets[r + 1]``, their new rows ``j_pair``.
+    ``numbers``: the pixel variance, the scale spread, the detected heading's variance and the
+    gate's chi-square.
+
+    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and pair; ``out``
+    ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis term, the heading
+    and its variance after the step."""
+    pix_var, spread_s, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
+    slot_of, row_of = track[0], track[1]
+    h_count = slot_of.shape[0]
+    total = 0
+    for h in range(h_count):
+        r = row_of[h]
+        total += offsets[r + 1] - offsets[r]
+    index = np.empty((2, total), dtype=np.int64)
+    out = np.empty((4, total))
+    k = 0
+    for h in range(h_count):
+        i = slot_of[h]
+        s, th, ptt = _at(scale, h), fields[2, h], fields[3, h]
+        d0, d1 = d[i, 0], d[i, 1]
+        rho0 = math.hypot(d0, d1)
+        c, sn = math.cos(th), math.sin(th)
+        m0 = s * (c * d0 - sn * d1)
+        m1 = s * (sn * d0 + c * d1)
+        c0, c1 = fields[0, h] + m0, fields[1, h] + m1
+        sr = s * rho0
+        spread = (robot[1, i] + _at(pos_var, h)) + sr * sr * ptt
+        turn_c = th + robot[0, i]
+        turn_var = ptt + robot[3, i] + theta_var
+        r = row_of[h]
+        for q in range(offsets[r], offsets[r + 1]):
+            j = j_pair[q]
+            dx = rows[j, 0] - c0
+            dy = rows[j, 1] - c1
+            chi2 = dx * dx + dy * dy
+            chi2 /= spread
+            if not chi2 <= gate_chi2:
+                continue
+            if orientation:
+                turn = _wrap(rows[j, 2] - turn_c)
+                if not chi2 + turn * turn / turn_var <= gate_chi2:
+                    continue
+            # known_children's Kalman step (kalman_heading).
+            ss = spread_s * s * rho0
+            b = pix_var + _at(pos_var, h) + s * s * robot[2, i] + ss * ss
+            ex = (rows[j, 0] - fields[0, h]) - m0
+            ey = (rows[j, 1] - fields[1, h]) - m1
+            h_e = m0 * ey - m1 * ex
+            a = b + ptt * (m0 * m0 + m1 * m1)
+            index[0, k], index[1, k] = h, q
+            out[0, k] = b * a
+            out[1, k] = (ex * ex + ey * ey - ptt * h_e * h_e / a) / b
+            out[2, k] = th + ptt * h_e / a + robot[0, i]
+            out[3, k] = compiled.maximum(ptt * b / a, 1e-14) + robot[3, i]
+            k += 1
+    return index[:, :k].copy(), out[:, :k].copy()
+
+
+@jit
+def finish_known(
+    slot: np.ndarray,
+    detected: np.ndarray,
+    loglik: np.ndarray,
+    theta: np.ndarray,
+    p_tt: np.ndarray,
+    log_var: np.ndarray,
+    base: np.ndarray,
+    bg: np.ndarray,
+    numbers: np.ndarray,
+    orientation: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~anonloc_env.identify.likelihood.orientation`, the weight and
+    :func:`~anonloc_env.identify.likelihood.pruned`'s prune of the candidates of
+    :func:`~anonloc_env.identify.kernels.known_children` (robots ``slot``, grouped):
+    ``loglik``, ``theta`` and ``p_tt`` ``(K,)`` are updated in place; ``log_var`` ``(K,)`` is
+    numpy's ``log(p_tt + var_z)``; ``base`` ``(K,)`` the parents' log weights; ``bg`` ``(K,)``
+    or ``(1,)`` what each is divided by (a log); ``numbers``: the detected heading's variance,
+    ``log(2 pi)``, ``log P_D`` and the prune's nats.
+
+    Returns ``(keep, logw)``: the candidates kept (in order) and every candidate's log
+    weight."""
+    var_z, log_2pi, log_pd, nats = numbers[0], numbers[1], numbers[2], numbers[3]
+    n = slot.shape[0]
+    logw = np.empty(n)
+    for k in range(n):
+        if orientation:
+            err = _wrap(detected[k] - theta[k])
+            var = p_tt[k] + var_z
+            loglik[k] += -0.5 * (log_2pi + log_var[k] + err * err / var)
+            gain = p_tt[k] / var
+            theta[k] += gain * err
+            p_tt[k] *= 1 - gain
+        logw[k] = base[k] + log_pd + loglik[k] - _at(bg, k)
+    keep = np.empty(n, dtype=np.int64)
+    kept = 0
+    start = 0
+    while start < n:
+        end = start + 1
+        best = logw[start]
+        while end < n and slot[end] == slot[start]:
+            best = compiled.maximum(best, logw[end])
+            end += 1
+        floor = best - nats
+        for k in range(start, end):
+            if logw[k] >= floor:
+                keep[kept] = k
+                kept += 1
+        start = end
+    return keep[:kept].copy(), logw
+
+
+_LOADED: list[bool] = []
+
+
+def load() -> None:
+    """Compile, or load from numba's cache, every kernel the identifier calls (those of this
+    module and :mod:`anonloc_env.compiled`'s neighbour search and leave-out sums), once per
+    process, by calling each on a tiny input of the types the identifier passes: the time goes
+    to building the identifier, not to its first pictures."""
+    if _LOADED:
+        return
+    compiled.pairs_within(np.zeros((1, 2)), np.zeros((1, 2)), 1.0)
+    compiled.leave_out_sums(np.ones((1, 1, 1)), 1.0, np.ones(2))
+    one, two = np.zeros(1, dtype=np.int64), np.array([0, 1], dtype=np.int64)
+    ones = np.ones
+    leg = (one, ones((10, 1)), ones((5, 1)), ones((2, 1)), (True, True), ones((3, 1)), ones(5))
+    first_leg(two, one, one, one + 1, leg)
+    anchored_known(
+        np.zeros((2, 1), dtype=np.int64), ones((4, 1)), ones(1), ones(1), ones((4, 1)),
+        ones((1, 2)), two, one, ones((1, 3)), ones(4), True,
+    )  # fmt: skip
+    finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
+    _LOADED.append(True)

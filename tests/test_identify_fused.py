@@ -1,0 +1,109 @@
+"""The identifier's compiled kernels (:mod:`anonloc_env.identify.fused`) against the numpy code
+they replace: the same tracks and beliefs to the bit, kernels on and off, on recorded env
+episodes (headings detected or not, scale known or not, misses, clutter, contacts) and on
+episodes drawn from the model (pushes, the others persisting)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from test_identify_paths import DRAWN, RECORDED, Episode, _record
+
+from anonloc_env import compiled
+from anonloc_env.identify import Identifier, SensorModel, fused
+from anonloc_env.identify.tracks import FIELDS
+
+pytest.importorskip("numba")
+pytestmark = pytest.mark.skipif(
+    compiled.mode() is None, reason="kernels off (ANONLOC_JIT=0 or an unknown numpy)"
+)
+
+
+def _run(model: SensorModel, n: int, episode: Episode, kernels_on: bool) -> list[list[np.ndarray]]:
+    """After every picture: every field of every track, the belief and the missing column."""
+    out = []
+    with pytest.MonkeyPatch.context() as patch:
+        if not kernels_on:
+            patch.setattr(compiled, "_MODE", [None])
+        ident = Identifier(model, n)
+        for rows, interval in episode:
+            ident.update(rows, interval)
+            fields = [np.asarray(getattr(ident.tracks, f)) for f in FIELDS]
+            out.append([*fields, ident.uniform, ident.belief(), ident.missing()])
+    return out
+
+
+@contextmanager
+def _calls(name: str) -> Iterator[list[int]]:
+    """Count the calls of kernel ``name`` of :mod:`~anonloc_env.identify.fused`."""
+    seen: list[int] = []
+    kernel: Callable[..., Any] = getattr(fused, name)
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        seen.append(1)
+        return kernel(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fused, name, spy)
+        yield seen
+
+
+def _same(a: list[list[np.ndarray]], b: list[list[np.ndarray]]) -> None:
+    assert len(a) == len(b)
+    for k, (x, y) in enumerate(zip(a, b, strict=True)):
+        for f, (u, v) in enumerate(zip(x, y, strict=True)):
+            np.testing.assert_array_equal(u, v, err_msg=f"picture {k}, field {f}")
+
+
+@pytest.mark.parametrize("name", list(RECORDED))
+def test_recorded_episodes_are_the_same_to_the_bit(name: str) -> None:
+    """Env episodes of 30 to 60 robots with misses, false positives and contacts: every track's
+    fields and every belief equal with the kernels on and off, and the kernels ran (the first
+    leg where headings are detected and the scale known, the anchored tracks everywhere: an
+    estimated scale goes through the general Kalman step inside the compiled path)."""
+    overrides, scale_known, first_leg = RECORDED[name]
+    config, episode = _record(3, 15, **overrides)
+    model = SensorModel.from_config(config, scale_known=scale_known)
+    with _calls("first_leg") as first, _calls("anchored_known") as anchored:
+        on = _run(model, config.n_robots, episode, kernels_on=True)
+    off = _run(model, config.n_robots, episode, kernels_on=False)
+    assert (len(first) > 0) == first_leg
+    assert anchored
+    _same(on, off)
+
+
+def test_a_large_crowd_is_the_same_to_the_bit() -> None:
+    """300 robots at 4 per m^2 (pushes, the others persisting): the same to the bit."""
+    config, episode = _record(
+        5, 6, n_robots=300, arena_size=(8.66, 8.66), camera={"pixel_noise": 1.0}
+    )
+    model = SensorModel.from_config(config)
+    assert any(i is not None and i.push is not None and i.push.any() for _, i in episode)
+    with _calls("anchored_known") as anchored:
+        on = _run(model, config.n_robots, episode, kernels_on=True)
+    assert anchored
+    _same(on, _run(model, config.n_robots, episode, kernels_on=False))
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(case=DRAWN)
+def test_drawn_episodes_are_the_same_to_the_bit(case: tuple[SensorModel, int, Episode]) -> None:
+    """Episodes drawn from the model, headings detected or not, misses, clutter, the others
+    persisting or not, unseen pushes (the general Kalman step inside the compiled path)."""
+    model, robots, episode = case
+    _same(_run(model, robots, episode, True), _run(model, robots, episode, False))
+
+
+def test_the_stable_order_is_numpys() -> None:
+    """The first leg's sort within a robot: ``np.argsort(kind="stable")``, ties included."""
+    rng = np.random.default_rng(4)
+    for n in (0, 1, 5, 16, 17, 100, 1000):
+        key = rng.integers(0, max(n // 3, 1), n).astype(np.float64) + 0.5
+        order = np.empty(n, dtype=np.int64)
+        fused._stable_order(key, n, order, np.empty(n, dtype=np.int64))
+        np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
