@@ -110,9 +110,9 @@ def _first_leg_robot(
 def first_leg(
     cuts: np.ndarray, robots: np.ndarray, start: np.ndarray, counts: np.ndarray, leg: Any
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``kernels._first_leg_block`` over every block ``cuts[b]:cuts[b + 1]`` of robots, less the
-    final wrap of the headings: ``(slot, pair, log weight, heading before its wrap)`` of what is
-    kept, heaviest first within each robot (ties in the order of the candidates).
+    """``kernels._first_leg_block`` over every block ``cuts[b]:cuts[b + 1]`` of robots:
+    ``(slot, pair, log weight, heading)`` of what is kept, heaviest first within each robot
+    (ties in the order of the candidates).
 
     ``leg`` is ``(by_length, per_robot, frames, per_pair, adds, motion, numbers)``: robot
     ``robots[k]``'s candidates are the pairs ``by_length[start[k]:start[k] + counts[k]]``;
@@ -156,7 +156,7 @@ def first_leg(
             for m in range(kept):
                 q = order[m]
                 out_slot[count], out_pick[count] = r, pick[q]
-                out_logw[count], out_theta[count] = logw[q], theta[q]
+                out_logw[count], out_theta[count] = logw[q], _wrap(theta[q])
                 count += 1
     return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
 

@@ -133,7 +133,6 @@ def first_leg(
     leg = _Leg(cuts, robots, start, counts, by_length, s, per_robot, frames, pairs, prior, scoring)
     if compiled.mode() is not None:  # the same floats in one call
         slot, pick, logw, theta = _first_leg_compiled(leg)
-        theta = wrap_angle(theta)
     else:
         slot, pick, logw, theta = _first_leg_blocks(leg)
     row = j_pair[pick]
@@ -192,7 +191,7 @@ def _first_leg_blocks(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
 
 def _first_leg_compiled(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_first_leg_blocks` by :func:`anonloc_env.identify.fused.first_leg` (the same
-    floats), less the final wrap of the headings."""
+    floats)."""
     pairs, prior, by_length = leg.pairs, leg.prior, leg.by_length
     per_pair = np.zeros((2, len(pairs.i_pair)))
     if prior.links is not None:  # for every pair, added as _first_leg_block adds it
@@ -211,8 +210,8 @@ def _first_leg_compiled(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
         (
             by_length.astype(np.int64),
             np.array(leg.per_robot),
-            np.array(leg.frames)[:, by_length],
-            per_pair[:, by_length],
+            np.array(leg.frames).take(by_length, axis=1),  # C order, as the kernel is compiled
+            per_pair.take(by_length, axis=1),
             (prior.links is not None, prior.row_bias is not None),
             np.stack([d[:, 0], d[:, 1], dphi]),
             np.array(numbers, dtype=np.float64),
@@ -439,7 +438,7 @@ def anchored_compiled(
     index, out = fused.anchored_known(
         np.stack([sub.slot, sub.row]).astype(np.int64),
         np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
-        np.ascontiguousarray(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),
+        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
         np.ascontiguousarray(s, dtype=np.float64),
         robot,
         np.ascontiguousarray(interval.d, dtype=np.float64),
