@@ -268,7 +268,7 @@ def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[st
 def table(files: list[Path]) -> str:
     """The docs' table of the rows in ``files`` (JSON written by this script), each condition
     beside the static camera without landmarks of the same N and policy (geometric source)."""
-    rows = [row for f in files for row in json.loads(f.read_text())]
+    rows = [row for f in files for row in json.loads(f.read_text()) if "policy" in row]
     static = {
         (r["n"], r["policy"]): r["pictures_to_99"][0]
         for r in rows

@@ -336,9 +336,9 @@ class Registration:
         start: np.ndarray,
     ) -> tuple[np.ndarray, float, list[float | None]]:
         """The transform's maximum a posteriori fit to the pairs (Cauchy-reweighted, 3 rounds,
-        the guesses' spreads rescaled to the residuals after the first, shrunk towards the
-        running scales), its error and this picture's robust scales of the directed pairs and
-        the others (``None`` where too few)."""
+        the guesses' spreads rescaled to the residuals after the first), its error (from the
+        spreads shrunk towards the running scales) and this picture's robust scales of the
+        directed pairs and the others (``None`` where too few)."""
         i, j = pairs
         target, sigma0, directed = guess
         cu, cv = self.prior.centre
@@ -351,26 +351,29 @@ class Registration:
         observed[0::2], observed[1::2] = target[j, 0] - cu, target[j, 1] - cv
         home = np.array([1.0, 0.0, 0.0, 0.0])
         transform, sigma = start, sigma0[j]
-        prior_w = self._change_w + self._absolute_w
-        normal = np.diag(prior_w)
         scales: list[float | None] = [None, None]
         for round_ in range(3):
             residual = (observed - design @ transform).reshape(-1, 2)
             norm = np.hypot(residual[:, 0], residual[:, 1])
             if round_:
-                floor = _residual_floor(self.prior)
-                sigma, scales = _rescaled(norm, sigma0[j], directed[j], floor, self._scales)
-            weight = 1.0 / (sigma**2 * (1.0 + (norm / (CAUCHY_SIGMAS * sigma)) ** 2))
-            w2 = np.repeat(weight, 2)
-            normal = design.T @ (w2[:, None] * design)
-            normal[np.diag_indices(4)] += prior_w
-            rhs = design.T @ (w2 * observed) + self._change_w * self.transform
-            rhs += self._absolute_w * home
+                sigma, scales = _rescaled(norm, sigma0[j], directed[j], _residual_floor(self.prior))
+            normal = self._normal(design, norm, sigma)
+            rhs = design.T @ (np.repeat(_weights(norm, sigma), 2) * observed)
+            rhs += self._change_w * self.transform + self._absolute_w * home
             transform = np.linalg.solve(normal, rhs)
-        cov = np.linalg.inv(normal)
+        # The stated error takes the spreads shrunk towards the running scales (the fit keeps
+        # this picture's own: its transform is the same with or without the shrinking).
+        cov = np.linalg.inv(self._normal(design, norm, _shrunk(sigma, directed[j], self._scales)))
         spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
         error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
         return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0)), scales
+
+    def _normal(self, design: np.ndarray, norm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        """The fit's normal matrix: the pairs' Cauchy weights and the priors."""
+        w2 = np.repeat(_weights(norm, sigma), 2)
+        normal = design.T @ (w2[:, None] * design)
+        normal[np.diag_indices(4)] += self._change_w + self._absolute_w
+        return normal
 
     def _remember(
         self, registered: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None
@@ -403,34 +406,39 @@ def _residual_floor(prior: RegistrationPrior) -> float:
     return max(math.sqrt(2.0) * prior.pixel_noise, 0.01)
 
 
+def _weights(norm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """The pairs' weights: their spreads ``sigma``, down-weighted (Cauchy) by their residual
+    lengths ``norm``."""
+    return 1.0 / (sigma**2 * (1.0 + (norm / (CAUCHY_SIGMAS * sigma)) ** 2))
+
+
 def _rescaled(
-    norm: np.ndarray,
-    sigma: np.ndarray,
-    directed: np.ndarray,
-    floor: float,
-    running: list[float | None],
+    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float
 ) -> tuple[np.ndarray, list[float | None]]:
     """The guesses' spreads ``sigma`` set, for the directed and the other pairs apart where
-    each has :data:`MIN_PAIRS`, to their residuals' robust scale (the median residual length
-    over a two-dimensional Gaussian's, :data:`RAYLEIGH_MEDIAN`), shrunk towards the
-    ``running`` scale of the group where there is one (weighed as :data:`SCALE_PRIOR_PAIRS`
-    pairs); and the robust scales themselves (``None`` where too few pairs)."""
+    each has :data:`MIN_PAIRS`, to their residuals' robust scale: the median residual length
+    over a two-dimensional Gaussian's (:data:`RAYLEIGH_MEDIAN`); and those scales (``None``
+    where too few pairs)."""
     out = sigma.copy()
     scales: list[float | None] = [None, None]
     for k, group in enumerate((directed, ~directed)):
-        count = int(group.sum())
-        if count >= MIN_PAIRS:
+        if int(group.sum()) >= MIN_PAIRS:
             scales[k] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
-        now = scales[k] if scales[k] is not None else (float(sigma[group][0]) if count else None)
-        before = running[k]
-        if now is None:
-            continue
-        if before is not None:
-            now = math.sqrt(
-                (SCALE_PRIOR_PAIRS * before**2 + count * now**2) / (SCALE_PRIOR_PAIRS + count)
-            )
-        out[group] = now
+            out[group] = scales[k]
     return out, scales
+
+
+def _shrunk(sigma: np.ndarray, directed: np.ndarray, running: list[float | None]) -> np.ndarray:
+    """The spreads ``sigma`` of the directed pairs and of the others shrunk towards the
+    ``running`` scale of their group (where there is one), weighed as
+    :data:`SCALE_PRIOR_PAIRS` pairs against the group's own."""
+    out = sigma.copy()
+    for k, group in enumerate((directed, ~directed)):
+        count, before = int(group.sum()), running[k]
+        if count and before is not None:
+            mixed = SCALE_PRIOR_PAIRS * before**2 + count * np.square(sigma[group])
+            out[group] = np.sqrt(mixed / (SCALE_PRIOR_PAIRS + count))
+    return out
 
 
 def _best(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:
