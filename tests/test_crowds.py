@@ -14,6 +14,7 @@ import anonloc_env
 import baselines
 from anonloc_env.identify import SensorModel
 from anonloc_env.identify.contact import CONTACT_BREAK, break_length
+from anonloc_env.odometry import Interval
 from baselines.excitations import GapSeeking, GapSettings
 from baselines.runner import run_episode
 from benchmarks.crowds import THRESHOLD, load_recorded, replay, without_contact_model
@@ -237,6 +238,27 @@ def test_crowd_preset_is_four_robots_per_square_metre() -> None:
     width, height = config.arena_size
     assert config.n_robots / (width * height) == 4.0
     assert not config.camera.orientation
+
+
+def test_losses_sorts_robots_that_stop_being_right() -> None:
+    """Three robots, three pictures: robot 0 right then undecided after two pushed intervals
+    (pressed), robot 1 right then wrong after one pushed interval, robot 2 right throughout."""
+    from baselines.runner import EpisodeResult, PictureRecord
+    from benchmarks.crowds import losses
+
+    def rec(robot: int, picture: int, estimate: int, correct: bool) -> PictureRecord:
+        return PictureRecord("", robot, picture, float(picture), estimate, robot, correct, 0.5, 0)
+
+    table = {0: [(0, True), (0, True), (-1, False)], 1: [(1, True), (1, True), (2, False)]}
+    table[2] = [(2, True)] * 3
+    records = [rec(i, k, e, c) for i, rows in table.items() for k, (e, c) in enumerate(rows)]
+    zero = np.zeros(3)
+    intervals = [
+        Interval(np.zeros((3, 2)), zero, zero, zero, zero, push=np.array([0.1, 0.0, 0.0])),
+        Interval(np.zeros((3, 2)), zero, zero, zero, zero, push=np.array([0.1, 0.2, 0.0])),
+    ]
+    result = EpisodeResult(1, 3, records, [], [], intervals)
+    assert losses(result) == {"undecided": 1, "wrong": 1, "pressed": 1}
 
 
 def test_largest_fall_after_95_and_the_figures(tmp_path: Path) -> None:
