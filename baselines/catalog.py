@@ -70,14 +70,16 @@ BUILT_IN_EXCITATIONS: dict[str, Entry] = {
     "greedy": Entry("baselines.active:GreedyIdentification"),
     "gaps": Entry("baselines.excitations:GapSeeking"),
     "uniform": Entry("baselines.excitations.uniform:UniformChoice"),
+    "uniform-rest": Entry("baselines.excitations.rest:uniform_rest"),
 }
 """The excitations by name. ``random`` is the paper's random motion (the excitation of the
 ``motion`` localizer); ``swarm`` is ``SwarmMotion`` with its defaults (jitter ``SWARM_JITTER``,
 common seed 0); ``distinct`` is ``DistinctMotion``; ``greedy`` is
 ``baselines.active.GreedyIdentification``; ``uniform`` is
 ``baselines.excitations.uniform.UniformChoice`` (chance among the learned agent's candidates,
-its no-learning ablation); ``gaps`` is ``GapSeeking``, the crowd-aware one
-(``docs/crowds.md``)."""
+its no-learning ablation); ``uniform-rest`` is ``uniform`` with the robots that are sure of
+themselves (largest belief at least 0.999) at rest (``baselines.excitations.rest``); ``gaps`` is
+``GapSeeking``, the crowd-aware one (``docs/crowds.md``)."""
 
 RENAMED = {"motion": "random"}
 """Old excitation names, still accepted with a ``DeprecationWarning``: old name -> new name.

@@ -35,12 +35,14 @@ import argparse
 import json
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
 from baselines.excitations.code import CentralizedCode
+from baselines.excitations.rest import RestWhenSure
 from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
@@ -85,17 +87,27 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
 
 
 def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Excitation]]:
-    """How to build each named excitation (the agent's model is loaded once)."""
+    """How to build each named excitation (the agent's model is loaded once). A name ending in
+    ``-rest`` that the registry does not know (``agent-rest``, ``greedy-rest``) is the named
+    one inside :class:`baselines.excitations.rest.RestWhenSure`."""
     out: dict[str, Callable[[], Excitation]] = {
         k: EXCITATIONS[k] for k in excitations if k in EXCITATIONS
     }
     out[REFERENCE] = CentralizedCode
-    if "agent" in excitations:
+    if "agent" in excitations or "agent-rest" in excitations:
         from agents.policy import LearnedExcitation, load_model
 
         model = load_model(agent)
         out["agent"] = lambda: LearnedExcitation(model)
+    for name in excitations:
+        inner = name.removesuffix("-rest")
+        if name not in out and inner in out:
+            out[name] = partial(_at_rest, out[inner])
     return out
+
+
+def _at_rest(make: Callable[[], Excitation]) -> Excitation:
+    return RestWhenSure(make())
 
 
 def median_text(row: dict[str, Any]) -> str:

@@ -24,6 +24,8 @@ Subcommands:
   plays ``gaps`` with another wait limit (``GapSettings.wait``).
 * ``plot``: the reliability curves per density and the share right over time, from that JSON.
 * ``record``: writes one crowded episode's pictures and motion (the test's recorded episode).
+* ``losses``: how robots that were right stopped being right between two pictures (undecided
+  or wrong, and how many of them pressed), per excitation.
 
 Usage::
 
@@ -210,6 +212,25 @@ def cause(played: Played, k: int, robot: int, taken: int, size: float) -> str:
 
 def _pushed(interval: Interval, robot: int) -> bool:
     return interval.push is not None and bool(interval.push[robot] > 0.0)
+
+
+def losses(result: EpisodeResult) -> dict[str, int]:
+    """How robots stopped being right between two pictures: ``undecided`` or ``wrong`` at the
+    later picture, and how many of those were ``pressed`` (pushed in that interval and the one
+    before, the contact model's test)."""
+    records = [r for r in result.records if r.localizer == ""]
+    pictures = max((r.picture for r in records), default=-1) + 1
+    right = np.zeros((pictures, result.n_robots), bool)
+    decided = np.zeros((pictures, result.n_robots), bool)
+    for r in records:
+        right[r.picture, r.robot], decided[r.picture, r.robot] = r.correct, r.estimate >= 0
+    out = {"undecided": 0, "wrong": 0, "pressed": 0}
+    for k in range(1, min(pictures, len(result.intervals) + 1)):
+        for robot in np.flatnonzero(right[k - 1] & ~right[k]):
+            out["wrong" if decided[k, robot] else "undecided"] += 1
+            before = k >= 2 and _pushed(result.intervals[k - 2], robot)
+            out["pressed"] += int(before and _pushed(result.intervals[k - 1], robot))
+    return out
 
 
 def diagnose(
@@ -458,6 +479,11 @@ def main(argv: list[str] | None = None) -> None:
     o.add_argument("--episodes", type=int, default=10)
     o.add_argument("--first-seed", type=int, default=100_000)
     o.add_argument("--json")
+    lo = sub.add_parser("losses", help="how robots stopped being right, per excitation")
+    lo.add_argument("--density", type=float, default=4.0)
+    lo.add_argument("--robots", type=int, default=100)
+    lo.add_argument("--excitations", nargs="+", default=["greedy", "gaps"])
+    lo.add_argument("--seeds", type=int, nargs=2, default=[20000, 20006], metavar=("FIRST", "END"))
     c = sub.add_parser("record")
     c.add_argument("out")
     c.add_argument("--density", type=float, default=4.0)
@@ -491,6 +517,16 @@ def main(argv: list[str] | None = None) -> None:
         rows = open_space(args.conditions, names, args.episodes, args.first_seed, extra)
         if args.json:
             write_json(args.json, rows)
+    elif args.command == "losses":
+        env = anonloc_env.AnonLocEnv(
+            scenario(args.robots, PICTURES, args.density), reward_fn=anonloc_env.EnergyCost()
+        )
+        for name in args.excitations:
+            total = {"undecided": 0, "wrong": 0, "pressed": 0}
+            for seed in range(*args.seeds):
+                for key, count in losses(play(env, name, seed).result).items():
+                    total[key] += count
+            print(name, json.dumps(total), flush=True)
     elif args.command == "table":
         with open(args.results) as f:
             cells = sorted(json.load(f), key=lambda c: (c["density"], c["n"]))

@@ -14,6 +14,7 @@ import anonloc_env
 import baselines
 from anonloc_env.identify import SensorModel
 from anonloc_env.identify.contact import CONTACT_BREAK, break_length
+from anonloc_env.odometry import Interval
 from baselines.excitations import GapSeeking, GapSettings
 from baselines.runner import run_episode
 from benchmarks.crowds import THRESHOLD, load_recorded, replay, without_contact_model
@@ -156,6 +157,24 @@ def test_gaps_commands_stay_in_the_box_and_some_robots_steer() -> None:
     assert (v == 0.0).any()  # some robot waited for a gap
 
 
+@pytest.mark.slow
+def test_a_wrongly_sure_robot_no_longer_waits_in_its_mistake() -> None:
+    """``gaps`` at 6 robots per m^2, N = 100, seed 20000 (the grid's one cell above 0.2 %
+    wrong in the second round): robot 31, sure of a wrong row from the 3rd picture, waited for
+    gaps that were not there and stayed wrong at 22 pictures. With the wait limit it moves, and
+    its identifier corrects it within a few pictures (3 measured); without, it stays wrong."""
+    env = anonloc_env.AnonLocEnv(scenario(100, 30, 6.0), reward_fn=anonloc_env.EnergyCost())
+
+    def wrong_pictures(settings: GapSettings) -> int:
+        team = baselines.make_team("bayes", env, excitation=GapSeeking(settings))
+        result = run_episode(env, team, 20000, max_pictures=30)
+        mine = [r for r in result.records if r.localizer == "" and r.robot == 31]
+        return sum(r.estimate >= 0 and not r.correct for r in mine)
+
+    assert wrong_pictures(GapSettings()) <= 5
+    assert wrong_pictures(GapSettings(wait=math.inf)) >= 15
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [
@@ -219,6 +238,27 @@ def test_crowd_preset_is_four_robots_per_square_metre() -> None:
     width, height = config.arena_size
     assert config.n_robots / (width * height) == 4.0
     assert not config.camera.orientation
+
+
+def test_losses_sorts_robots_that_stop_being_right() -> None:
+    """Three robots, three pictures: robot 0 right then undecided after two pushed intervals
+    (pressed), robot 1 right then wrong after one pushed interval, robot 2 right throughout."""
+    from baselines.runner import EpisodeResult, PictureRecord
+    from benchmarks.crowds import losses
+
+    def rec(robot: int, picture: int, estimate: int, correct: bool) -> PictureRecord:
+        return PictureRecord("", robot, picture, float(picture), estimate, robot, correct, 0.5, 0)
+
+    table = {0: [(0, True), (0, True), (-1, False)], 1: [(1, True), (1, True), (2, False)]}
+    table[2] = [(2, True)] * 3
+    records = [rec(i, k, e, c) for i, rows in table.items() for k, (e, c) in enumerate(rows)]
+    zero = np.zeros(3)
+    intervals = [
+        Interval(np.zeros((3, 2)), zero, zero, zero, zero, push=np.array([0.1, 0.0, 0.0])),
+        Interval(np.zeros((3, 2)), zero, zero, zero, zero, push=np.array([0.1, 0.2, 0.0])),
+    ]
+    result = EpisodeResult(1, 3, records, [], [], intervals)
+    assert losses(result) == {"undecided": 1, "wrong": 1, "pressed": 1}
 
 
 def test_largest_fall_after_95_and_the_figures(tmp_path: Path) -> None:
