@@ -66,7 +66,7 @@ class BumpReflex(BackOff):
         """``(R,)`` at a new picture, the robots pushed in the interval that ended with it and in
         the one before (``Identifier._pressed``'s test, from the bumpers), without changing any
         state: a feature a policy can read in ``on_picture`` (before this step's
-        :meth:`commands`)."""
+        ``commands``)."""
         return (self.bumped | step.bumper) & self.before
 
     def start(self, hit: np.ndarray) -> None:
