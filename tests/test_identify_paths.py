@@ -112,7 +112,7 @@ def test_fast_and_general_paths_agree_on_recorded_episodes(name: str) -> None:
     with (
         _calls("first_leg") as first,
         _calls("known_children") as known,
-        _calls("anchored_compiled") as known_compiled,  # the same floats (test_identify_fused)
+        _calls("known_compiled") as known_compiled,  # the same floats (test_identify_fused)
     ):
         fast = _beliefs(model, config.n_robots, episode, fast=True)
     with _calls("first_leg") as first_general, _calls("known_children") as known_general:

@@ -68,11 +68,13 @@ class Builder(NamedTuple):
         temporaries stay small; each robot's children are pruned within its block, as they
         would be all at once."""
         prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
-        if self.fast and compiled.mode() is not None and _all_known(tracks, anchored):
-            links = self.prior.links
-            return kernels.anchored_compiled(tracks, anchored, pairs, links, self.scoring)
         # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
         offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
+        if self.fast and compiled.mode() is not None and _all_known(tracks, anchored):
+            sub = tracks.select(anchored)
+            lo, hi = offsets[sub.row], offsets[sub.row + 1]
+            links, scoring = self.prior.links, self.scoring
+            return kernels.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
         row = tracks.row[anchored]
         counts = offsets[row + 1] - offsets[row]
         robot_start = group_starts(tracks.slot[anchored])
@@ -109,10 +111,16 @@ class Builder(NamedTuple):
         grown position noise widen each track's search beyond ``radius``."""
         rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
         model = self.scoring.model
-        gate = Gate.of(unseen, interval, model, pix_var, self.scoring.theta_var)
         carried = np.hypot(unseen.carry[:, 0], unseen.carry[:, 1])
         wider = radius + model.scale_bounds[1] * carried + GATE_SIGMAS * np.sqrt(unseen.pos_var)
         a, b, _ = pairs_within_each(unseen.pos, rows[:, :2], np.maximum(wider, 1e-9))
+        if self.fast and compiled.mode() is not None and _all_known(unseen, np.arange(len(unseen))):
+            # a is sorted: track h's candidates are b[lo[h]:hi[h]].
+            lo = np.searchsorted(a, np.arange(len(unseen)), side="left")
+            hi = np.searchsorted(a, np.arange(len(unseen)), side="right")
+            links, scoring = self.prior.links, self.scoring
+            return kernels.known_compiled(unseen, lo, hi, b, pairs, links, scoring)
+        gate = Gate.of(unseen, interval, model, pix_var, self.scoring.theta_var)
         keep = gate.passes(a, rows, b)
         bg = self._link_bg(unseen.row[a[keep]], b[keep], pairs.log_bg)
         return children(unseen.take(a[keep]), rows, b[keep], interval, pix_var, bg, self.scoring)

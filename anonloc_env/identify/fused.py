@@ -30,38 +30,23 @@ def _wrap_fast(angle: float) -> float:
 
 
 @jit
-def _stable_order(key: np.ndarray, n: int, order: np.ndarray, work: np.ndarray) -> None:
-    """``order[:n]`` = ``np.argsort(key[:n], kind="stable")``, without allocating: runs of 16 by
-    insertion, then merged bottom-up (``work`` as long as ``order``)."""
-    for i in range(n):
-        order[i] = i
-    run = 16
-    for lo in range(0, n, run):
-        for i in range(lo + 1, min(lo + run, n)):
+def _stable_order(key: np.ndarray, n: int, order: np.ndarray) -> None:
+    """``order[:n]`` = ``np.argsort(key[:n], kind="stable")`` (no NaN): a quicksort, then each
+    run of equal keys put back in the order of its indices."""
+    order[:n] = np.argsort(key[:n])
+    start = 0
+    while start < n:
+        end = start + 1
+        while end < n and key[order[end]] == key[order[start]]:
+            end += 1
+        for i in range(start + 1, end):  # ties (rare): by index
             item = order[i]
             j = i
-            while j > lo and key[order[j - 1]] > key[item]:
+            while j > start and order[j - 1] > item:
                 order[j] = order[j - 1]
                 j -= 1
             order[j] = item
-    src, dst = order, work
-    swapped = False
-    while run < n:
-        for lo in range(0, n, 2 * run):
-            mid, hi = min(lo + run, n), min(lo + 2 * run, n)
-            i, j = lo, mid
-            for out in range(lo, hi):
-                if j >= hi or (i < mid and key[src[i]] <= key[src[j]]):
-                    dst[out] = src[i]
-                    i += 1
-                else:
-                    dst[out] = src[j]
-                    j += 1
-        src, dst = dst, src
-        swapped = not swapped
-        run *= 2
-    if swapped:
-        order[:n] = work[:n]
+        start = end
 
 
 @jit
@@ -134,7 +119,6 @@ def first_leg(
     pick, logw, theta = found
     key = np.empty(widest)
     order = np.empty(widest, dtype=np.int64)
-    work = np.empty(widest, dtype=np.int64)
     step = 2.0 * nats + 2.0
     count = 0
     for b in range(len(cuts) - 1):
@@ -152,7 +136,7 @@ def first_leg(
                     pick[kept], logw[kept], theta[kept] = pick[m], logw[m], theta[m]
                     key[kept] = group * step + (floor + nats - logw[m])
                     kept += 1
-            _stable_order(key, kept, order, work)
+            _stable_order(key, kept, order)
             for m in range(kept):
                 q = order[m]
                 out_slot[count], out_pick[count] = r, pick[q]
@@ -175,41 +159,39 @@ def _at(a: np.ndarray, k: int) -> float:
 
 
 @jit
-def anchored_known(
+def known_children(
     track: np.ndarray,
     fields: np.ndarray,
     pos_var: np.ndarray,
     scale: np.ndarray,
     robot: np.ndarray,
     d: np.ndarray,
-    offsets: np.ndarray,
-    j_pair: np.ndarray,
+    cand: np.ndarray,
     rows: np.ndarray,
     numbers: np.ndarray,
     orientation: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The gate and the Kalman step of ``Builder.anchored`` when every track knows its heading
-    and scale and carries no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
+    """The gate and the Kalman step of tracks that all know their heading and scale and carry
+    no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
     :func:`~anonloc_env.identify.kernels.known_children`'s arithmetic up to its ``log``.
 
-    Tracks ``track`` ``(2, H)``: each one's robot and row of the previous picture; ``fields``
+    Tracks ``track`` ``(3, H)``: each one's robot, and the range ``track[1, h]:track[2, h]`` of
+    ``cand`` that holds its candidate rows of the new picture ``rows``; ``fields``
     ``(4, H)``: its ``pos`` x and y, ``theta`` and ``p_tt``; ``pos_var`` and ``scale``
     ``(H,)``, or ``(1,)`` where every track holds them alike. Per robot, ``robot`` ``(4, n)``:
-    ``dphi``, the gate's worst variance, ``var_d`` and ``var_dphi``; ``d`` ``(n, 2)``. The pairs
-    of previous row ``r`` are ``offsets[r]:offsets[r + 1]``, their new rows ``j_pair``.
+    ``dphi``, the gate's worst variance, ``var_d`` and ``var_dphi``; ``d`` ``(n, 2)``.
     ``numbers``: the pixel variance, the scale spread, the detected heading's variance and the
     gate's chi-square.
 
-    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and pair; ``out``
-    ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis term, the heading
-    and its variance after the step."""
+    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and place in
+    ``cand``; ``out`` ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis
+    term, the heading and its variance after the step."""
     pix_var, spread_s, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
-    slot_of, row_of = track[0], track[1]
+    slot_of, lo, hi = track[0], track[1], track[2]
     h_count = slot_of.shape[0]
     total = 0
     for h in range(h_count):
-        r = row_of[h]
-        total += offsets[r + 1] - offsets[r]
+        total += hi[h] - lo[h]
     index = np.empty((2, total), dtype=np.int64)
     out = np.empty((4, total))
     k = 0
@@ -226,9 +208,8 @@ def anchored_known(
         spread = (robot[1, i] + _at(pos_var, h)) + sr * sr * ptt
         turn_c = th + robot[0, i]
         turn_var = ptt + robot[3, i] + theta_var
-        r = row_of[h]
-        for q in range(offsets[r], offsets[r + 1]):
-            j = j_pair[q]
+        for q in range(lo[h], hi[h]):
+            j = cand[q]
             dx = rows[j, 0] - c0
             dy = rows[j, 1] - c1
             chi2 = dx * dx + dy * dy
@@ -308,6 +289,57 @@ def finish_known(
     return keep[:kept].copy(), logw
 
 
+@jit
+def general_kalman(x: np.ndarray, pix_var: float, spread: float) -> np.ndarray:
+    """:func:`~anonloc_env.identify.likelihood.kalman`'s general step (heading known, scale
+    known or estimated, unseen pushes) of candidates ``x`` ``(17, K)``: the parent's ``theta``,
+    ``log s``, ``p_tt``, ``p_ts``, ``p_ss`` and ``s = exp(log s)`` (numpy's), the robot's own
+    displacement ``d``, the displacement to the row, the push covariance ``(xx, xy, yy)``
+    (robot frame, m^2), the parent's position variance, the robot's ``var_d``, ``dphi`` and
+    ``var_dphi``. ``pix_var`` and ``spread`` (the model's scale spread) complete
+    ``Geometry.base_var``.
+
+    Returns ``(7, K)``: ``det S`` (whose ``log`` the caller takes), the Mahalanobis term, and
+    the new ``theta``, ``p_tt``, ``log s``, ``p_ts`` and ``p_ss``."""
+    count = x.shape[1]
+    out = np.empty((7, count))
+    quarter_c, quarter_s = math.cos(math.pi / 2.0), math.sin(math.pi / 2.0)
+    for k in range(count):
+        th, ls, ptt, pts, pss, s = x[0, k], x[1, k], x[2, k], x[3, k], x[4, k], x[5, k]
+        d0, d1, e_0, e_1 = x[6, k], x[7, k], x[8, k], x[9, k]
+        rho0 = math.hypot(d0, d1)
+        ss = spread * s * rho0
+        base = pix_var + x[13, k] + s * s * x[14, k] + ss * ss
+        cxx, cxy, cyy = x[10, k] * (s * s), x[11, k] * (s * s), x[12, k] * (s * s)
+        c, sn = math.cos(th), math.sin(th)
+        q11 = c * c * cxx - 2 * c * sn * cxy + sn * sn * cyy
+        q12 = c * sn * (cxx - cyy) + (c * c - sn * sn) * cxy
+        q22 = sn * sn * cxx + 2 * c * sn * cxy + c * c * cyy
+        p0 = (c * d0 - sn * d1) * s  # h(x) = s R(theta) d
+        p1 = (sn * d0 + c * d1) * s
+        t0 = quarter_c * p0 - quarter_s * p1  # dh/dtheta: h turned a quarter
+        t1 = quarter_s * p0 + quarter_c * p1
+        e0, e1 = e_0 - p0, e_1 - p1
+        a0, a1 = t0 * ptt + p0 * pts, t1 * ptt + p1 * pts  # H P, first column
+        b0, b1 = t0 * pts + p0 * pss, t1 * pts + p1 * pss  # second column
+        s11 = base + q11 + a0 * t0 + b0 * p0
+        s12 = q12 + a0 * t1 + b0 * p1
+        s22 = base + q22 + a1 * t1 + b1 * p1
+        det = s11 * s22 - s12 * s12
+        i11, i12, i22 = s22 / det, -s12 / det, s11 / det
+        out[0, k] = det
+        out[1, k] = e0 * e0 * i11 + 2 * e0 * e1 * i12 + e1 * e1 * i22
+        f0, f1 = i11 * e0 + i12 * e1, i12 * e0 + i22 * e1
+        at0, at1 = i11 * a0 + i12 * a1, i12 * a0 + i22 * a1
+        as0, as1 = i11 * b0 + i12 * b1, i12 * b0 + i22 * b1
+        out[2, k] = th + (a0 * f0 + a1 * f1) + x[15, k]
+        out[3, k] = compiled.maximum(ptt - (a0 * at0 + a1 * at1), 1e-14) + x[16, k]
+        out[4, k] = ls + (b0 * f0 + b1 * f1)
+        out[5, k] = pts - (a0 * as0 + a1 * as1)
+        out[6, k] = compiled.maximum(pss - (b0 * as0 + b1 * as1), 0.0)
+    return out
+
+
 _LOADED: list[bool] = []
 
 
@@ -324,9 +356,10 @@ def load() -> None:
     ones = np.ones
     leg = (one, ones((10, 1)), ones((5, 1)), ones((2, 1)), (True, True), ones((3, 1)), ones(5))
     first_leg(two, one, one, one + 1, leg)
-    anchored_known(
-        np.zeros((2, 1), dtype=np.int64), ones((4, 1)), ones(1), ones(1), ones((4, 1)),
-        ones((1, 2)), two, one, ones((1, 3)), ones(4), True,
+    known_children(
+        np.array([[0], [0], [1]]), ones((4, 1)), ones(1), ones(1), ones((4, 1)), ones((1, 2)),
+        one, ones((1, 3)), ones(4), True,
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
+    general_kalman(ones((17, 1)), 1.0, 1.0)
     _LOADED.append(True)

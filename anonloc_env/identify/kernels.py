@@ -33,7 +33,7 @@ from anonloc_env.identify.likelihood import (
     orientation,
     pruned,
 )
-from anonloc_env.identify.model import LOG_2PI, SensorModel
+from anonloc_env.identify.model import LOG_2PI, SensorModel, push_covariance
 from anonloc_env.identify.others import Links
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import expand_ranges
@@ -407,67 +407,91 @@ def _general_kalman(
     model: SensorModel,
 ) -> None:
     """Candidates ``g`` of ``child`` (parent tracks ``sub``, rows ``z``) scored by the general
-    :func:`~anonloc_env.identify.likelihood.kalman` instead."""
-    out = Child.start(sub)
-    kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
-    child.loglik[g], child.theta[g], child.p_tt[g] = out.loglik, out.theta, out.p_tt
+    :func:`~anonloc_env.identify.likelihood.kalman` instead; by
+    :func:`anonloc_env.identify.fused.general_kalman` where the kernels are on (the same
+    floats; ``exp`` and ``log`` taken by numpy around it)."""
+    if compiled.mode() is None:
+        out = Child.start(sub)
+        kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
+        new = (out.loglik, out.theta, out.p_tt, out.log_s, out.p_ts, out.p_ss)
+    else:
+        count, slot = len(sub), sub.slot
+        log_s = np.broadcast_to(sub.log_s, (count,))
+        d = interval.d[slot]
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        cov = push_covariance(interval, model)[slot]
+        delta = z[:, :2] - sub.pos
+        x = np.empty((17, count))
+        x[0], x[1], x[2], x[3], x[4] = sub.theta, log_s, sub.p_tt, sub.p_ts, sub.p_ss
+        x[5] = np.exp(log_s)
+        x[6], x[7], x[8], x[9] = d[:, 0], d[:, 1], delta[:, 0], delta[:, 1]
+        x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+        x[13], x[14], x[15], x[16] = sub.pos_var, var_d[slot], interval.dphi[slot], var_dphi[slot]
+        step = fused.general_kalman(x, pix_var, model.scale_spread)
+        loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
+        new = (loglik, step[2], step[3], step[4], step[5], step[6])
+    child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
     # Own copies: the parents' fields may be shared.
     child.log_s, child.p_ts, child.p_ss = (
         np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
     )
-    child.log_s[g], child.p_ts[g], child.p_ss[g] = out.log_s, out.p_ts, out.p_ss
+    child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
 
 
-def anchored_compiled(
-    tracks: Tracks, anchored: np.ndarray, pairs: Pairs, links: Links | None, scoring: Scoring
-) -> Tracks:
-    """``Builder.anchored`` when every track of ``anchored`` knows its heading and scale and
-    carries no motion, by the compiled kernels (the same floats): the gate of ``Gate.of``
-    and ``Gate.passes``, then :func:`known_children`, the general Kalman step for the candidates
-    it hands there, the detected heading and the prune, in one pass over the candidates
-    instead of blocks of numpy calls."""
-    prev, rows, i_pair, j_pair, interval, pix_var, _ = pairs
-    model = scoring.model
-    sub = tracks.select(anchored)
-    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
-    var_d, var_dphi = interval.variances(model.odometry_noise)
-    n = len(interval.d)
-    robot = np.stack(
-        [interval.dphi, worst_variance(np.arange(n), interval, model, pix_var), var_d, var_dphi]
-    )
-    index, out = fused.anchored_known(
-        np.stack([sub.slot, sub.row]).astype(np.int64),
-        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
-        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
-        np.ascontiguousarray(s, dtype=np.float64),
-        robot,
-        np.ascontiguousarray(interval.d, dtype=np.float64),
-        np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left").astype(np.int64),
-        j_pair.astype(np.int64),
-        np.ascontiguousarray(rows, dtype=np.float64),
-        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
-        bool(model.orientation),
-    )
-    return _finish_compiled(sub, index, out, pairs, links, scoring)
-
-
-def _finish_compiled(
+def known_compiled(
     sub: Tracks,
-    index: np.ndarray,
-    out: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    cand: np.ndarray,
     pairs: Pairs,
     links: Links | None,
     scoring: Scoring,
 ) -> Tracks:
-    """What :func:`anchored_compiled` does after the gate and the Kalman step of
-    :func:`anonloc_env.identify.fused.anchored_known` (``index``, ``out``): the log, the
-    general Kalman step where :func:`known_children` takes it, then the detected heading, the
-    weights and the prune (:func:`anonloc_env.identify.fused.finish_known`)."""
-    _, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
+    """The children of tracks ``sub`` that all know their heading and scale and carry no motion,
+    track ``h``'s candidate rows ``cand[lo[h]:hi[h]]``, by the compiled kernels (the same
+    floats): the gate of ``Gate.of`` and ``Gate.passes``, then :func:`known_children` (which
+    equals :func:`~anonloc_env.identify.likelihood.children` for such tracks), the general Kalman
+    step for the candidates it hands there, the detected heading and the prune, in one pass
+    over the candidates instead of blocks of numpy calls. ``Builder.anchored`` and
+    ``Builder.from_missed`` take it."""
+    rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
     model = scoring.model
-    parent, pair = index[0], index[1]
+    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
+    var_d, var_dphi = interval.variances(model.odometry_noise)
+    n = len(interval.d)
+    worst = worst_variance(np.arange(n), interval, model, pix_var)
+    index, out = fused.known_children(
+        np.stack([sub.slot, lo, hi]).astype(np.int64),
+        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
+        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
+        np.ascontiguousarray(s, dtype=np.float64),
+        np.stack([interval.dphi, worst, var_d, var_dphi]),
+        np.ascontiguousarray(interval.d, dtype=np.float64),
+        cand.astype(np.int64),
+        np.ascontiguousarray(rows, dtype=np.float64),
+        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
+        bool(model.orientation),
+    )
+    return _finish_compiled(sub, index[0], cand[index[1]], pairs, links, scoring, out)
+
+
+def _finish_compiled(
+    sub: Tracks,
+    parent: np.ndarray,
+    cand: np.ndarray,
+    pairs: Pairs,
+    links: Links | None,
+    scoring: Scoring,
+    out: np.ndarray,
+) -> Tracks:
+    """What :func:`known_compiled` does after the gate and the Kalman step of
+    :func:`anonloc_env.identify.fused.known_children` (track ``parent[k]`` at row ``cand[k]``,
+    ``out``): the log, the general Kalman step where :func:`known_children` takes it, then the
+    detected heading, the weights and the prune
+    (:func:`anonloc_env.identify.fused.finish_known`)."""
+    rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
+    model = scoring.model
     count = len(parent)
-    cand = j_pair[pair]
     slot = sub.slot[parent]
     child = Child(
         loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
@@ -481,7 +505,7 @@ def _finish_compiled(
     if general.any():
         g = np.flatnonzero(general)
         _general_kalman(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
-    bg = np.array([log_bg]) if links is None else -links.detect(i_pair, j_pair)[pair]
+    bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
     if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
         orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
         logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
