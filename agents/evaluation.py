@@ -1,7 +1,9 @@
 """Episodes of an excitation on fixed seeds, and the censored pictures to 99 % they took.
 
 Used by the training run's progress display (:class:`agents.callbacks.ProgressEvaluation`),
-its closing comparison against random motion, and ``benchmarks/agent_eval.py``.
+its closing comparison against random motion, ``benchmarks/agent_eval.py``, and the
+validations against ``uniform`` of a search and of a checkpoint selection
+(:func:`validate_against_uniform`).
 
 >>> results = play(config, "free", 0.2, lambda: make_excitation("random"), range(4), 20)
 >>> censored_pictures(results, 20)  # doctest: +SKIP
@@ -10,16 +12,20 @@ its closing comparison against random motion, and ``benchmarks/agent_eval.py``.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
 import anonloc_env
 import baselines
+from agents.conditions import VALIDATION_SEEDS, validation_scenario
 from agents.spec import on_duty
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
+from baselines.excitations.uniform import UniformChoice
 from baselines.runner import EpisodeResult, run_episode
 from baselines.scoring import pictures_to_identify
+from baselines.statistics import Interval95, paired_ratio
 
 
 def play(
@@ -56,3 +62,45 @@ def censored(result: EpisodeResult, pictures: int) -> tuple[int, float]:
 def censored_pictures(results: list[EpisodeResult], pictures: int) -> float:
     """The censored mean pictures to 99 % over ``results`` (see :func:`censored`)."""
     return float(np.mean([censored(r, pictures)[0] for r in results]))
+
+
+@dataclass(frozen=True)
+class Validation:
+    """An excitation against ``uniform`` on one validation condition, on the same episodes.
+
+    Attributes:
+        pictures: the ratio of censored mean pictures to 99 %, with its paired 95 % interval.
+        energy: the ratio of mean energy to 99 %, with its paired 95 % interval.
+        mean: the excitation's censored mean pictures to 99 %.
+        uniform: ``uniform``'s censored mean pictures to 99 %.
+    """
+
+    pictures: Interval95
+    energy: Interval95
+    mean: float
+    uniform: float
+
+
+def validate_against_uniform(
+    make: Callable[[], Excitation], episodes: int, pictures: int
+) -> dict[str, Validation]:
+    """``make()``'s excitation against ``uniform`` (its no-learning ablation) on the validation
+    condition (:func:`agents.conditions.validation_scenario`, seeds from
+    :data:`agents.conditions.VALIDATION_SEEDS`), in free motion and on swarm duty (keys
+    ``free`` and ``swarm``), ``episodes`` episodes of ``pictures`` pictures each."""
+    seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
+    out = {}
+    for condition in ("free", "swarm"):
+        scenario = validation_scenario(condition, pictures=pictures)
+        mine, chance = (
+            np.array([censored(r, pictures) for r in play(
+                scenario.config, condition, scenario.budget, maker, seeds, pictures)])
+            for maker in (make, UniformChoice)
+        )  # fmt: skip
+        out[condition] = Validation(
+            paired_ratio(mine[:, 0], chance[:, 0]),
+            paired_ratio(mine[:, 1], chance[:, 1]),
+            float(mine[:, 0].mean()),
+            float(chance[:, 0].mean()),
+        )
+    return out

@@ -49,18 +49,15 @@ import numpy as np
 
 from agents.candidates import CandidateChooser
 from agents.conditions import (
-    VALIDATION_SEEDS,
     ConditionRanges,
     Scenario,
     draw_scenario,
-    validation_scenario,
 )
-from agents.evaluation import censored, play
+from agents.evaluation import censored, play, validate_against_uniform
 from agents.linear_terms import LINEAR_TERMS, check_weights, linear_terms
 from agents.policy import draw
 from agents.run_folder import write_text_atomic
 from anonloc_env._checks import check_number
-from baselines.statistics import paired_ratio
 
 
 class LinearChooser(CandidateChooser):
@@ -167,19 +164,15 @@ def costs(
 
 def validate(weights: np.ndarray, episodes: int, pictures: int) -> dict[str, float]:
     """``weights`` against ``uniform`` on the validation condition
-    (:func:`agents.conditions.validation_scenario`), in free motion and on swarm duty: the
+    (:func:`agents.evaluation.validate_against_uniform`), in free motion and on swarm duty: the
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``) and the censored mean pictures of both."""
-    seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
     out: dict[str, float] = {}
-    for condition in ("free", "swarm"):
-        scenario = validation_scenario(condition, pictures=pictures)
-        mine, _ = play_weights(scenario, weights, seeds, pictures)
-        chance, _ = play_weights(scenario, np.zeros(len(LINEAR_TERMS)), seeds, pictures)
-        out[f"{condition}_mean"] = float(mine[:, 0].mean())
-        out[f"{condition}_uniform"] = float(chance[:, 0].mean())
-        for k, what in enumerate(("pictures", "energy")):
-            ratio = paired_ratio(mine[:, k], chance[:, k])
+    validations = validate_against_uniform(lambda: LinearChooser(weights), episodes, pictures)
+    for condition, v in validations.items():
+        out[f"{condition}_mean"] = v.mean
+        out[f"{condition}_uniform"] = v.uniform
+        for what, ratio in (("pictures", v.pictures), ("energy", v.energy)):
             out[f"{condition}_{what}"] = ratio.mean
             out[f"{condition}_{what}_low"] = ratio.low
             out[f"{condition}_{what}_high"] = ratio.high

@@ -34,12 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.conditions import VALIDATION_SEEDS, validation_scenario
-from agents.evaluation import censored, play
+from agents.evaluation import validate_against_uniform
 from agents.policy import LearnedExcitation, load_model
 from agents.train import TrainConfig, train
-from baselines.registry import make_excitation
-from baselines.statistics import Interval95, paired_ratio
+from baselines.statistics import Interval95
 
 #: The bundled agent's training run (``minutes`` and ``out`` come from the command line).
 BUNDLED = TrainConfig(
@@ -77,24 +75,12 @@ VALIDATION_PICTURES = 20
 def validate(path: Path, episodes: int = VALIDATION_EPISODES) -> dict[str, tuple[Interval95, ...]]:
     """The agent at ``path`` against ``uniform`` on the validation condition, free and on swarm
     duty: per condition, the paired ratios of censored means (pictures, energy), with 95 %
-    bootstrap intervals."""
+    bootstrap intervals (:func:`agents.evaluation.validate_against_uniform`)."""
     model = load_model(path)
-    seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
-    out = {}
-    for condition in ("free", "swarm"):
-        scenario = validation_scenario(condition, pictures=VALIDATION_PICTURES)
-        played = {
-            name: np.array([censored(r, VALIDATION_PICTURES) for r in play(
-                scenario.config, condition, scenario.budget, make, seeds, VALIDATION_PICTURES)])
-            for name, make in (
-                ("agent", lambda: LearnedExcitation(model)),
-                ("uniform", lambda: make_excitation("uniform")),
-            )
-        }  # fmt: skip
-        out[condition] = tuple(
-            paired_ratio(played["agent"][:, k], played["uniform"][:, k]) for k in (0, 1)
-        )
-    return out
+    validations = validate_against_uniform(
+        lambda: LearnedExcitation(model), episodes, VALIDATION_PICTURES
+    )
+    return {condition: (v.pictures, v.energy) for condition, v in validations.items()}
 
 
 def cost(ratios: dict[str, tuple[Interval95, ...]]) -> float:
