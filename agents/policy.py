@@ -27,7 +27,7 @@ from gymnasium import spaces
 from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from agents.candidates import CandidateChooser
 from agents.saved_agent import check_members, load_failure, run_settings
-from agents.spec import check_saved, on_duty, saved_spec
+from agents.spec import AgentSpec, check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.excitations.rest import RestWhenSure
@@ -168,10 +168,16 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if spec is not None:  # the agent's own record, before its run folder's
         train = {"condition": spec.condition, "budget": spec.budget}
     condition = condition or str(train.get("condition", "free"))
+    return on_duty(condition, as_saved(model, spec), float(train.get("budget", budget)))
+
+
+def as_saved(model: Any, spec: AgentSpec | None) -> Excitation:
+    """The policy of ``model`` as its spec runs it: at rest once sure when ``spec.rest`` is set
+    (``baselines.excitations.rest.RestWhenSure``), before any swarm duty."""
     own: Excitation = LearnedExcitation(model)
-    if spec is not None and spec.rest is not None:  # it rests as it was trained to
+    if spec is not None and spec.rest is not None:
         own = RestWhenSure(own, spec.rest)
-    return on_duty(condition, own, float(train.get("budget", budget)))
+    return own
 
 
 def team(
