@@ -168,15 +168,19 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if spec is not None:  # the agent's own record, before its run folder's
         train = {"condition": spec.condition, "budget": spec.budget}
     condition = condition or str(train.get("condition", "free"))
-    return on_duty(condition, as_saved(model, spec), float(train.get("budget", budget)))
+    return on_duty(condition, as_saved(model), float(train.get("budget", budget)))
 
 
-def as_saved(model: Any, spec: AgentSpec | None) -> Excitation:
-    """The policy of ``model`` as its spec runs it: at rest once sure when ``spec.rest`` is set
-    (``baselines.excitations.rest.RestWhenSure``), before any swarm duty."""
+def as_saved(model: Any) -> Excitation:
+    """The policy of ``model`` (an SB3 model, loaded or in training) as its spec runs it: at
+    rest once sure when the spec in its ``policy_kwargs`` sets ``rest``
+    (``baselines.excitations.rest.RestWhenSure``), before any swarm duty. Every evaluation of
+    a model goes through here, so none forgets the rest it was trained with."""
     own: Excitation = LearnedExcitation(model)
-    if spec is not None and spec.rest is not None:
-        own = RestWhenSure(own, spec.rest)
+    data = (getattr(model, "policy_kwargs", None) or {}).get("spec")
+    rest = AgentSpec.from_json(data).rest if data is not None else None
+    if rest is not None:
+        own = RestWhenSure(own, rest)
     return own
 
 

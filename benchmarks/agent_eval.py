@@ -99,12 +99,10 @@ def makers(
     }
     out[REFERENCE] = CentralizedCode
     if "agent" in excitations or "agent-rest" in excitations:
-        from agents.policy import agent_file, as_saved, load_model
-        from agents.spec import saved_spec
+        from agents.policy import as_saved, load_model
 
         model = load_model(agent)
-        spec = saved_spec(agent_file(agent))
-        out["agent"] = lambda: as_saved(model, spec)
+        out["agent"] = lambda: as_saved(model)
     for name in excitations:
         inner = out.get(name.removesuffix("-rest")) or EXCITATIONS.get(name.removesuffix("-rest"))
         if name.endswith("-rest") and inner is not None and (name not in out or sure != SURE):
