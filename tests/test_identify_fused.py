@@ -96,6 +96,29 @@ def test_recorded_episodes_are_the_same_to_the_bit(name: str) -> None:
     _same(on, off)
 
 
+@pytest.mark.parametrize("name", ["no-headings", "scale-unknown"])
+def test_mixed_blocks_are_split_by_robot(name: str) -> None:
+    """Where some robots' tracks do not know their heading or scale yet, the robots that do take
+    the compiled path and the others the general one, in the same call (both ran), and the
+    tracks stay those of the numpy path to the bit."""
+    overrides, scale_known, _ = RECORDED[name]
+    config, episode = _record(3, 15, **overrides)
+    model = SensorModel.from_config(config, scale_known=scale_known)
+    splits: list[tuple[int, int]] = []
+    split: Callable[..., Any] = kernels.known_robots
+
+    def spy(tracks: Any, index: np.ndarray) -> Any:
+        known, rest = split(tracks, index)
+        splits.append((len(known), len(rest)))
+        return known, rest
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(kernels, "known_robots", spy)
+        on = _run(model, config.n_robots, episode, kernels_on=True)
+    assert any(known and rest for known, rest in splits)
+    _same(on, _run(model, config.n_robots, episode, kernels_on=False))
+
+
 def test_a_large_crowd_is_the_same_to_the_bit() -> None:
     """300 robots at 4 per m^2 (pushes, the others persisting): the same to the bit."""
     config, episode = _record(
