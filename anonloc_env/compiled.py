@@ -453,10 +453,11 @@ def forward_pairs(xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray
     x, y = xy[:, 0], xy[:, 1]
     x0, y0 = x.min(), y.min()
     key = np.empty(n, dtype=np.int64)
-    top = 0
+    top = np.int64(0)
     for p in range(n):
         row = np.int64(math.floor((y[p] - y0) / radius)) + 1
-        top = max(top, row)
+        if row > top:
+            top = row
         key[p] = row
     stride = top + 2
     for p in range(n):

@@ -64,9 +64,9 @@ class Builder(NamedTuple):
         offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
         fast = Tracks.empty()
         if self.fast and compiled.mode() is not None:  # robots that know heading and scale
-            known, anchored = kernels.known_robots(tracks, anchored)
-            if len(known):
-                sub = tracks.select(known)
+            sure, anchored = kernels.known_robots(tracks, anchored)
+            if len(sure):
+                sub = tracks.select(sure)
                 lo, hi = offsets[sub.row], offsets[sub.row + 1]
                 links, scoring = self.prior.links, self.scoring
                 fast = kernels.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
