@@ -16,7 +16,7 @@ from anonloc_env.env import AnonLocEnv
 from anonloc_env.neighbours import pairs_within
 from anonloc_env.odometry import Odometry
 from anonloc_env.rewards import EnergyCost
-from anonloc_env.separation import Separator
+from anonloc_env.separation import Separator, pairs_within_self
 from anonloc_env.world import WheelTravel
 
 pytest.importorskip("numba")
@@ -125,6 +125,29 @@ def test_the_neighbour_search_finds_the_same_pairs(
     for x, y in zip(fast, plain, strict=True):
         assert x.dtype == y.dtype
         np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_neighbour_list_is_the_grid_searchs(seed: int, request: pytest.FixtureRequest) -> None:
+    """The position correction's neighbour list (``pairs_within_self``) by its kernel and by
+    numpy: the same pairs in the same order, on random crowds and on grids (distances of exactly
+    the radius and a hair within or beyond it, duplicates, points on cell borders)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 400))
+    if seed < 3:
+        xy = rng.integers(0, 12, (n, 2)).astype(float) * 0.125
+        xy[: n // 3] += rng.choice([-1e-17, 0.0, 1e-17], (n // 3, 2))
+        radius = 0.125 * float(rng.integers(1, 3))
+    else:
+        xy = rng.uniform(0, float(rng.uniform(1.0, 20.0)), (n, 2))
+        radius = float(rng.uniform(0.05, 1.5))
+    z = xy.view(np.complex128)[:, 0]
+    fast = pairs_within_self(z, radius)
+    request.getfixturevalue("numpy_only")
+    plain = pairs_within_self(z, radius)
+    assert len(plain) > 0
+    assert fast.dtype == plain.dtype
+    np.testing.assert_array_equal(fast, plain)
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.05])

@@ -19,6 +19,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.compiled import jit
+from anonloc_env.identify import fused_links
 
 
 @jit
@@ -345,7 +346,8 @@ _LOADED: list[bool] = []
 
 def load() -> None:
     """Compile, or load from numba's cache, every kernel the identifier calls (those of this
-    module and :mod:`anonloc_env.compiled`'s neighbour search and leave-out sums), once per
+    module, of :mod:`~anonloc_env.identify.fused_links` and :mod:`anonloc_env.compiled`'s
+    neighbour search and leave-out sums), once per
     process, by calling each on a tiny input of the types the identifier passes: the time goes
     to building the identifier, not to its first pictures."""
     if _LOADED:
@@ -362,4 +364,5 @@ def load() -> None:
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
     general_kalman(ones((17, 1)), 1.0, 1.0)
+    fused_links.load()
     _LOADED.append(True)

@@ -438,6 +438,44 @@ def _general_kalman(
     child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
 
 
+def known_robots(tracks: Tracks, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(known, rest)``: tracks ``index`` (increasing, grouped by robot) split by robot into
+    those of the robots whose tracks ``index`` all know their heading and scale and carry no
+    motion (what :func:`known_compiled` takes) and the others (the general path), each in the
+    order of ``index``. A robot's children depend on its own tracks alone, so each robot gets
+    the same children whichever path its neighbours take."""
+    sub = tracks.select(index)
+    known = np.isfinite(sub.theta) & np.isfinite(sub.log_s)
+    if sub.turn.any() or sub.carry.any():
+        known &= (sub.turn == 0.0) & ~sub.carry.any(axis=1)
+    if known.all():
+        return index, index[:0]
+    starts = group_starts(sub.slot)
+    whole = np.repeat(np.minimum.reduceat(known, starts), group_sizes(sub.slot, starts))
+    return index[whole], index[~whole]
+
+
+def renumbered(
+    a: np.ndarray, b: np.ndarray, index: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Of pairs ``a[k] - b[k]`` (track ``a[k]`` of ``n``), those of tracks ``index``
+    (increasing), in order, ``a`` renumbered to its position in ``index``."""
+    place = np.full(n, -1, dtype=np.int64)
+    place[index] = np.arange(len(index))
+    mine = place[a]
+    keep = np.flatnonzero(mine >= 0)
+    return mine[keep], b[keep]
+
+
+def merge_by_robot(first: Tracks, second: Tracks) -> Tracks:
+    """The tracks of ``first`` and ``second`` (each grouped by robot, no robot in both) in one,
+    grouped by robot in order, each robot's tracks in their order."""
+    if not len(first) or not len(second):
+        return second if not len(first) else first
+    both = Tracks.concat([first, second])
+    return both.take(np.argsort(both.slot, kind="stable"))
+
+
 def known_compiled(
     sub: Tracks,
     lo: np.ndarray,
