@@ -52,33 +52,38 @@ def needs_general(
 def general_step(
     child: Child,
     g: np.ndarray,
-    sub: Tracks,
+    tracks: Tracks,
+    parents: np.ndarray,
     z: np.ndarray,
     interval: Interval,
     pix_var: float,
     model: SensorModel,
 ) -> None:
-    """Candidates ``g`` of ``child`` (parent tracks ``sub``, rows ``z``) scored by the general
-    :func:`~anonloc_env.identify.likelihood.kalman` instead; by
+    """Candidates ``g`` of ``child`` (parent tracks ``parents`` of ``tracks``, rows ``z``)
+    scored by the general :func:`~anonloc_env.identify.likelihood.kalman` instead; by
     :func:`anonloc_env.identify.fused.general_kalman` where the kernels are on (the same
     floats; ``exp`` and ``log`` taken by numpy around it)."""
     if compiled.mode() is None:
+        sub = tracks.take(parents)
         out = Child.start(sub)
         kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
         new = (out.loglik, out.theta, out.p_tt, out.log_s, out.p_ts, out.p_ss)
     else:
-        count, slot = len(sub), sub.slot
-        log_s = np.broadcast_to(sub.log_s, (count,))
-        d = interval.d[slot]
         var_d, var_dphi = interval.variances(model.odometry_noise)
-        cov = push_covariance(interval, model)[slot]
-        delta = z[:, :2] - sub.pos
-        x = np.empty((17, count))
-        x[0], x[1], x[2], x[3], x[4] = sub.theta, log_s, sub.p_tt, sub.p_ts, sub.p_ss
-        x[5] = np.exp(log_s)
-        x[6], x[7], x[8], x[9] = d[:, 0], d[:, 1], delta[:, 0], delta[:, 1]
-        x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
-        x[13], x[14], x[15], x[16] = sub.pos_var, var_d[slot], interval.dphi[slot], var_dphi[slot]
+        robots = np.stack([interval.d[:, 0], interval.d[:, 1], var_d, interval.dphi, var_dphi])
+        log_s = _one(tracks.log_s) if is_shared(tracks.log_s) else tracks.log_s[parents]
+        fields = tuple(_one(f) for f in (tracks.theta, tracks.p_tt, tracks.p_ts, tracks.p_ss))
+        x = fused.general_inputs(
+            parents.astype(np.int64),
+            (*fields, _one(tracks.pos_var)),
+            log_s,
+            np.exp(log_s),
+            tracks.pos,
+            tracks.slot.astype(np.int64),
+            robots,
+            np.ascontiguousarray(push_covariance(interval, model), dtype=np.float64),
+            z,
+        )
         step = fused.general_kalman(x, pix_var, model.scale_spread)
         loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
         new = (loglik, step[2], step[3], step[4], step[5], step[6])
@@ -88,6 +93,11 @@ def general_step(
         np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
     )
     child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
+
+
+def _one(field: np.ndarray) -> np.ndarray:
+    """A track field as a kernel takes it: ``(1,)`` where shared, else the field itself."""
+    return np.array(field[:1]) if is_shared(field) else field
 
 
 def known_robots(tracks: Tracks, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +206,7 @@ def _finish_compiled(
     general = needs_general(child.p_ts, child.p_ss, interval, slot)
     if general.any():
         g = np.flatnonzero(general)
-        general_step(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
+        general_step(child, g, sub, parent[g], rows[cand[g]], interval, pix_var, model)
     bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
     if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
         orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)

@@ -374,7 +374,7 @@ def known_children(
     general = fused_calls.needs_general(p_ts, p_ss, interval, slot)
     if general.any():
         g = np.flatnonzero(general)
-        fused_calls.general_step(child, g, tracks.take(parent[g]), z[g], interval, pix_var, model)
+        fused_calls.general_step(child, g, tracks, parent[g], z[g], interval, pix_var, model)
     if model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = tracks.logw[parent] + scoring.log_pd + child.loglik - log_bg
