@@ -495,6 +495,37 @@ def forward_pairs(xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray
 
 
 @jit
+def interval_step(
+    before: np.ndarray,
+    now: np.ndarray,
+    bumper: np.ndarray,
+    speed: np.ndarray,
+    bounds: np.ndarray,
+    sums: np.ndarray,
+    push_sum: np.ndarray,
+) -> bool:
+    """``odometry.IntervalStatistics.add_motion``: one control step of the robots' own odometry
+    ``(R, 3)`` from ``before`` to ``now``, contacts ``bumper`` (bool) at commanded ``speed``;
+    ``bounds``: ``v_max`` and ``dt``. Adds into ``sums`` ``(4, R)`` (path, squared distances,
+    squared turns, pushes) and ``push_sum`` ``(R, 2)``; returns whether any robot touched."""
+    quarter, dt = 0.25 * bounds[0], bounds[1]
+    touched = False
+    for i in range(now.shape[0]):
+        if bumper[i]:  # push_bound and lateral, at the heading before the step
+            touched = True
+            bound = (abs(speed[i]) + quarter) * dt
+            sums[3, i] += bound
+            push_sum[i, 0] += bound * -math.sin(before[i, 2])
+            push_sum[i, 1] += bound * math.cos(before[i, 2])
+        distance = math.hypot(now[i, 0] - before[i, 0], now[i, 1] - before[i, 1])
+        turn = now[i, 2] - before[i, 2]
+        sums[0, i] += distance
+        sums[1, i] += distance * distance
+        sums[2, i] += turn * turn
+    return touched
+
+
+@jit
 def _block_sum(a: np.ndarray, start: int, n: int) -> float:
     """numpy's pairwise sum of ``a[start:start + n]``, ``n <= 128``: in order below 8 items,
     else eight running sums combined as a tree, then the rest in order."""

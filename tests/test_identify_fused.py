@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from test_identify_paths import DRAWN, RECORDED, Episode, _record
 
 from anonloc_env import compiled, make_config
-from anonloc_env.identify import Identifier, SensorModel, fused, kernels
+from anonloc_env.identify import Identifier, SensorModel, fused, fused_calls
 from anonloc_env.identify.others import Links, links_between
 from anonloc_env.identify.tracks import FIELDS
 
@@ -41,17 +41,17 @@ def _run(model: SensorModel, n: int, episode: Episode, kernels_on: bool) -> list
 
 @contextmanager
 def _missed_calls() -> Iterator[list[bool]]:
-    """For each call of ``kernels.known_compiled``: whether its tracks were missed in the
+    """For each call of ``fused_calls.known_compiled``: whether its tracks were missed in the
     previous picture (``Builder.from_missed``) rather than anchored at a row of it."""
     seen: list[bool] = []
-    kernel: Callable[..., Any] = kernels.known_compiled
+    kernel: Callable[..., Any] = fused_calls.known_compiled
 
     def spy(sub: Any, *args: Any) -> Any:
         seen.append(bool((sub.row < 0).all()))
         return kernel(sub, *args)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(kernels, "known_compiled", spy)
+        patch.setattr(fused_calls, "known_compiled", spy)
         yield seen
 
 
@@ -105,7 +105,7 @@ def test_mixed_blocks_are_split_by_robot(name: str) -> None:
     config, episode = _record(3, 15, **overrides)
     model = SensorModel.from_config(config, scale_known=scale_known)
     splits: list[tuple[int, int]] = []
-    split: Callable[..., Any] = kernels.known_robots
+    split: Callable[..., Any] = fused_calls.known_robots
 
     def spy(tracks: Any, index: np.ndarray) -> Any:
         known, rest = split(tracks, index)
@@ -113,7 +113,7 @@ def test_mixed_blocks_are_split_by_robot(name: str) -> None:
         return known, rest
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(kernels, "known_robots", spy)
+        patch.setattr(fused_calls, "known_robots", spy)
         on = _run(model, config.n_robots, episode, kernels_on=True)
     assert any(known and rest for known, rest in splits)
     _same(on, _run(model, config.n_robots, episode, kernels_on=False))

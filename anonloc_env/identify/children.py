@@ -18,7 +18,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify import kernels
+from anonloc_env.identify import fused_calls, kernels
 from anonloc_env.identify.arrays import group_starts, rank_in_group
 from anonloc_env.identify.gate import Gate, uniform_gate
 from anonloc_env.identify.likelihood import Pairs, Scoring, children
@@ -64,12 +64,12 @@ class Builder(NamedTuple):
         offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
         fast = Tracks.empty()
         if self.fast and compiled.mode() is not None:  # robots that know heading and scale
-            sure, anchored = kernels.known_robots(tracks, anchored)
+            sure, anchored = fused_calls.known_robots(tracks, anchored)
             if len(sure):
                 sub = tracks.select(sure)
                 lo, hi = offsets[sub.row], offsets[sub.row + 1]
                 links, scoring = self.prior.links, self.scoring
-                fast = kernels.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
+                fast = fused_calls.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
             if not len(anchored):
                 return fast
         row = tracks.row[anchored]
@@ -100,7 +100,7 @@ class Builder(NamedTuple):
             else:
                 parents = block.take(parent)
                 out.append(children(parents, rows, cand, interval, pix_var, bg, scoring))
-        return kernels.merge_by_robot(fast, Tracks.concat(out))
+        return fused_calls.merge_by_robot(fast, Tracks.concat(out))
 
     def from_missed(self, unseen: Tracks, pairs: Pairs, radius: float) -> Tracks:
         """The children of tracks ``unseen``, each missed in the previous picture: the rows
@@ -113,23 +113,23 @@ class Builder(NamedTuple):
         a, b, _ = pairs_within_each(unseen.pos, rows[:, :2], np.maximum(wider, 1e-9))
         fast = Tracks.empty()
         if self.fast and compiled.mode() is not None:  # robots that know heading and scale
-            known, rest = kernels.known_robots(unseen, np.arange(len(unseen)))
+            known, rest = fused_calls.known_robots(unseen, np.arange(len(unseen)))
             if len(known):  # a is sorted: track h's candidates are b[lo[h]:hi[h]].
                 lo = np.searchsorted(a, known, side="left")
                 hi = np.searchsorted(a, known, side="right")
                 sub, links, scoring = unseen.select(known), self.prior.links, self.scoring
-                fast = kernels.known_compiled(sub, lo, hi, b, pairs, links, scoring)
+                fast = fused_calls.known_compiled(sub, lo, hi, b, pairs, links, scoring)
             if not len(rest):
                 return fast
             if len(known):  # the others' own candidates, renumbered
-                a, b = kernels.renumbered(a, b, rest, len(unseen))
+                a, b = fused_calls.renumbered(a, b, rest, len(unseen))
                 unseen = unseen.select(rest)
         gate = Gate.of(unseen, interval, model, pix_var, self.scoring.theta_var)
         keep = gate.passes(a, rows, b)
         bg = self._link_bg(unseen.row[a[keep]], b[keep], pairs.log_bg)
         parents = unseen.take(a[keep])
         slow = children(parents, rows, b[keep], interval, pix_var, bg, self.scoring)
-        return kernels.merge_by_robot(fast, slow)
+        return fused_calls.merge_by_robot(fast, slow)
 
     def from_uniform(
         self, live: np.ndarray, pairs: Pairs, dist: np.ndarray, var_d: np.ndarray
