@@ -1,4 +1,5 @@
-"""``anonloc bench --excitation uniform-rest``, run as a user runs it (the console script)."""
+"""``anonloc bench --excitation uniform-rest`` and ``anonloc train --rest``, run as a user runs them
+(the console script)."""
 
 from __future__ import annotations
 
@@ -31,3 +32,31 @@ def test_anonloc_bench_runs_uniform_rest_as_a_user_does(tmp_path: Path) -> None:
                 assert spent[k + 1] == pytest.approx(spent[k], abs=1e-6), row
                 rested += 1
     assert rested > 0
+
+
+def test_anonloc_train_rest_is_saved_with_the_agent(tmp_path: Path) -> None:
+    """``anonloc train --rest`` as the real console script: the saved agent's spec records the
+    belief, and the loaded agent rests there; a belief outside (0.5, 1] is refused, naming
+    ``rest``, before anything is written."""
+    pytest.importorskip("torch")
+    from agents.policy import load_agent
+    from agents.spec import saved_spec
+    from baselines.excitations.rest import RestWhenSure
+
+    done = run_script(
+        "train", "--timesteps", "64", "--n-envs", "1", "--n-steps", "16", "--batch-size", "16",
+        "--eval-episodes", "0", "--set", "n_robots=3", "--rest", "0.9999",
+        "--out", tmp_path, "--name", "r", "--quiet", timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    agent = tmp_path / "r" / "agent.zip"
+    spec = saved_spec(agent)
+    assert spec is not None
+    assert spec.rest == 0.9999
+    loaded = load_agent(agent)
+    assert isinstance(loaded, RestWhenSure)
+    assert loaded.sure == 0.9999
+    bad = run_script("train", "--rest", "0.3", "--out", tmp_path, "--name", "bad")
+    assert bad.returncode != 0
+    assert "rest must be in (0.5, 1]" in bad.stderr
+    assert not (tmp_path / "bad").exists()
