@@ -82,10 +82,14 @@ class Validation:
 
 
 def validate_against_uniform(
-    make: Callable[[], Excitation], episodes: int, pictures: int
+    make: Callable[[], Excitation],
+    episodes: int,
+    pictures: int,
+    ablation: Callable[[], Excitation] = UniformChoice,
 ) -> dict[str, Validation]:
-    """``make()``'s excitation against ``uniform`` (its no-learning ablation) on the validation
-    condition (:func:`agents.conditions.validation_scenario`, seeds from
+    """``make()``'s excitation against ``ablation()`` (default ``uniform``, its no-learning
+    ablation; ``uniform-rest`` for an agent that rests) on the validation condition
+    (:func:`agents.conditions.validation_scenario`, seeds from
     :data:`agents.conditions.VALIDATION_SEEDS`), in free motion and on swarm duty (keys
     ``free`` and ``swarm``), ``episodes`` episodes of ``pictures`` pictures each."""
     seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
@@ -95,7 +99,7 @@ def validate_against_uniform(
         mine, chance = (
             np.array([censored(r, pictures) for r in play(
                 scenario.config, condition, scenario.budget, maker, seeds, pictures)])
-            for maker in (make, UniformChoice)
+            for maker in (make, ablation)
         )  # fmt: skip
         out[condition] = Validation(
             paired_ratio(mine[:, 0], chance[:, 0]),

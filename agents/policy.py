@@ -30,6 +30,7 @@ from agents.saved_agent import check_members, load_failure, run_settings
 from agents.spec import check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
+from baselines.excitations.rest import RestWhenSure
 from baselines.localizers import BayesLocalizer
 from baselines.policies import Team
 
@@ -155,7 +156,8 @@ def load_model(path: str | Path) -> Any:
 
 def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
     """The excitation of the agent saved at ``path`` (an ``agent.zip``, its run folder, or
-    ``"bundled"``), in ``condition`` (default: the one its spec records, for an older file its
+    ``"bundled"``), at rest once sure when its spec says so (``AgentSpec.rest``), in
+    ``condition`` (default: the one its spec records, for an older file its
     run's, else ``free``; ``mixed`` runs ``free``; on ``swarm`` duty the agent is the deviation
     of ``baselines.excitations.SwarmDuty``, with the spec's or the run's budget, else
     ``budget``)."""
@@ -166,7 +168,10 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if spec is not None:  # the agent's own record, before its run folder's
         train = {"condition": spec.condition, "budget": spec.budget}
     condition = condition or str(train.get("condition", "free"))
-    return on_duty(condition, LearnedExcitation(model), float(train.get("budget", budget)))
+    own: Excitation = LearnedExcitation(model)
+    if spec is not None and spec.rest is not None:  # it rests as it was trained to
+        own = RestWhenSure(own, spec.rest)
+    return on_duty(condition, own, float(train.get("budget", budget)))
 
 
 def team(

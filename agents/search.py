@@ -58,6 +58,9 @@ from agents.linear_terms import LINEAR_TERMS, check_weights, linear_terms
 from agents.policy import draw
 from agents.run_folder import write_text_atomic
 from anonloc_env._checks import check_number
+from baselines.excitations import Excitation
+from baselines.excitations.rest import RestWhenSure
+from baselines.excitations.uniform import UniformChoice
 
 
 class LinearChooser(CandidateChooser):
@@ -110,6 +113,11 @@ class SearchConfig:
     """Seeds the scenarios, the draws and the episodes."""
     minutes: float = 60.0
     """Wall-clock budget (min): no generation starts after it."""
+    rest: float | None = None
+    """The belief at which a robot holds still until the next picture, in (0.5, 1]
+    (``baselines.excitations.rest.RestWhenSure``): every member and the baseline rest, so the
+    search is against ``uniform-rest``, and the saved agent's spec records it; None: no rest,
+    the search is against ``uniform``."""
     ranges: ConditionRanges = field(default_factory=ConditionRanges)
     """The training conditions (:class:`agents.conditions.ConditionRanges`)."""
 
@@ -126,15 +134,30 @@ class SearchConfig:
         check_number("validation_episodes", self.validation_episodes, 2, 10_000, integer=True)
         check_number("seed", self.seed, 0, 2**63 - 1, integer=True)
         check_number("minutes", self.minutes, 0.0, 1e6)
+        if self.rest is not None:
+            check_number("rest", self.rest, 0.5, 1.0, low_open=True)
+
+
+def chooser(weights: np.ndarray, rest: float | None = None) -> Callable[[], Excitation]:
+    """A maker of the linear scorer with ``weights`` (zeros: ``uniform``), at rest once its
+    belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
+    if rest is None:
+        return lambda: LinearChooser(weights)
+    sure = rest
+    return lambda: RestWhenSure(LinearChooser(weights), sure)
 
 
 def play_weights(
-    scenario: Scenario, weights: np.ndarray, seeds: Sequence[int], pictures: int
+    scenario: Scenario,
+    weights: np.ndarray,
+    seeds: Sequence[int],
+    pictures: int,
+    rest: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """``(firsts, decisions)``: ``(len(seeds), 2)`` censored pictures to 99 % and energy to
-    99 % (m) of ``bayes`` robots driven by the linear scorer with ``weights`` (zeros:
-    ``uniform``), and the robot-decisions (robots times pictures) the episodes took."""
-    make: Callable[[], LinearChooser] = lambda: LinearChooser(weights)  # noqa: E731
+    99 % (m) of ``bayes`` robots driven by :func:`chooser` ``(weights, rest)``, and the
+    robot-decisions (robots times pictures) the episodes took."""
+    make = chooser(weights, rest)
     results = play(scenario.config, scenario.condition, scenario.budget, make, seeds, pictures)
     decisions = sum(len(r.records) for r in results)
     return np.array([censored(r, pictures) for r in results], np.float64), decisions
@@ -150,25 +173,29 @@ def costs(
     total = 0
     for s, (scenario, seeds) in enumerate(scenarios):
         chance, decisions = play_weights(
-            scenario, np.zeros(len(LINEAR_TERMS)), seeds, config.pictures
+            scenario, np.zeros(len(LINEAR_TERMS)), seeds, config.pictures, config.rest
         )
         total += decisions
         base = np.maximum(chance.mean(axis=0), 1e-9)
         for m, weights in enumerate(members):
-            played, decisions = play_weights(scenario, weights, seeds, config.pictures)
+            played, decisions = play_weights(scenario, weights, seeds, config.pictures, config.rest)
             ratios[m, s] = played.mean(axis=0) / base
             total += decisions
     logs = np.log(ratios).mean(axis=1)
     return logs[:, 0] + config.energy_weight * logs[:, 1], np.exp(logs), total
 
 
-def validate(weights: np.ndarray, episodes: int, pictures: int) -> dict[str, float]:
-    """``weights`` against ``uniform`` on the validation condition
-    (:func:`agents.evaluation.validate_against_uniform`), in free motion and on swarm duty: the
+def validate(
+    weights: np.ndarray, episodes: int, pictures: int, rest: float | None = None
+) -> dict[str, float]:
+    """``weights`` against ``uniform`` (both at rest once sure, with ``rest``) on the validation
+    condition (:func:`agents.evaluation.validate_against_uniform`), in free motion and on swarm
+    duty: the
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``) and the censored mean pictures of both."""
     out: dict[str, float] = {}
-    validations = validate_against_uniform(lambda: LinearChooser(weights), episodes, pictures)
+    ablation = chooser(np.zeros(len(LINEAR_TERMS)), rest) if rest is not None else UniformChoice
+    validations = validate_against_uniform(chooser(weights, rest), episodes, pictures, ablation)
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
         out[f"{condition}_uniform"] = v.uniform
@@ -268,7 +295,7 @@ def search(
         FileNotFoundError: ``resume`` and there is no search in ``directory``.
         ValueError: ``resume`` with a config other than the saved one.
     """
-    from agents.linear_agent import save_linear_agent
+    from agents.linear_agent import linear_spec, save_linear_agent
 
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "search.json"
@@ -302,19 +329,24 @@ def search(
             break
         row: dict[str, Any] = {}
         if state.generation % config.validate_every == 0:
-            row |= validate(np.asarray(state.mu), config.validation_episodes, config.pictures)
+            row |= validate(
+                np.asarray(state.mu), config.validation_episodes, config.pictures, config.rest
+            )
         step(state, config, row.update)
         history.append({"generation": state.generation - 1, **row})
         save()
         log(_summary(history[-1]))
     last = history[-1] if history else {}
     if not (last.get("generation") == state.generation and "free_pictures" in last):
-        final = validate(np.asarray(state.mu), config.validation_episodes, config.pictures)
+        final = validate(
+            np.asarray(state.mu), config.validation_episodes, config.pictures, config.rest
+        )
         history.append({"generation": state.generation, **final})
         save()
         log(_summary(history[-1]))
     mu = np.asarray(state.mu)
-    save_linear_agent(mu, directory / "agent.zip")
+    spec = dataclasses.replace(linear_spec(), rest=config.rest)
+    save_linear_agent(mu, directory / "agent.zip", spec)
     return mu
 
 

@@ -3,11 +3,12 @@ that trains, runs or loads it.
 
 An agent is defined by what it sees (its features, by name and meaning, and how many candidate
 commands it chooses among), what it is rewarded for (:class:`Reward`, an object, not a string)
-and where it acts (the condition, and the swarm budget). :class:`agents.crew.Crew`, the SB3
-``VecEnv`` (:class:`agents.vec.AnonLocVecEnv`), the PettingZoo env
-(:class:`agents.pettingzoo.BeliefParallelEnv`), RLlib (:func:`agents.rllib.make_ppo_config`) and
-``anonloc train`` (through :meth:`agents.train.TrainConfig.spec`) take the spec, never its parts
-one by one.
+and where it acts (the condition, and the swarm budget), and when it rests (``rest``: a robot
+sure of itself holds still, :class:`baselines.excitations.rest.RestWhenSure`).
+:class:`agents.crew.Crew`, the SB3 ``VecEnv`` (:class:`agents.vec.AnonLocVecEnv`), the
+PettingZoo env (:class:`agents.pettingzoo.BeliefParallelEnv`), RLlib
+(:func:`agents.rllib.make_ppo_config`) and ``anonloc train`` (through
+:meth:`agents.train.TrainConfig.spec`) take the spec, never its parts one by one.
 
 The spec is saved inside the agent's zip (SB3's ``policy_kwargs``, plain JSON) and read back
 before anything in the file is unpickled (:func:`saved_spec`): an agent whose features differ
@@ -45,6 +46,7 @@ from agents.candidate_features import (
 from agents.linear_terms import LINEAR_TERMS
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations.rest import RestWhenSure
 
 #: Where the agent acts: ``free`` (the chosen candidate is the command), ``swarm`` (a bounded
 #: deviation from a shared command stream) or ``mixed`` (training across drawn scenarios; a
@@ -124,6 +126,10 @@ class AgentSpec:
             ``linear`` (``agents.features.LinearScorer``, one weight per term).
         terms: the linear scorer's terms by name and meaning
             (:data:`agents.linear_terms.LINEAR_TERMS`); empty for ``deep_sets``.
+        rest: the belief at which a robot holds still until the next picture (on swarm duty: no
+            deviation), in (0.5, 1] (:class:`baselines.excitations.rest.RestWhenSure`); None:
+            the policy chooses at every picture. Saved with the agent, so that it rests where
+            it runs as it did where it was trained and searched.
     """
 
     candidates: int = CANDIDATES
@@ -135,12 +141,15 @@ class AgentSpec:
     budget: float = 0.2
     scorer: str = "deep_sets"
     terms: tuple[Feature, ...] = ()
+    rest: float | None = None
 
     def __post_init__(self) -> None:
         check_number("candidates", self.candidates, 1, 1024, integer=True)
         check_choice("condition", self.condition, CONDITIONS)
         check_number("budget", self.budget, 0.0, 1.0)
         check_choice("scorer", self.scorer, SCORERS)
+        if self.rest is not None:
+            check_number("rest", self.rest, 0.5, 1.0, low_open=True)
         if (self.scorer == "linear") != bool(self.terms):
             raise ValueError("terms must be given for the linear scorer, and only for it")
         for name in ("candidate_features", "context_features", "terms"):
@@ -149,7 +158,10 @@ class AgentSpec:
                 raise ValueError(f"{name} must have distinct names, got {names}")
 
     def excitation(self, own: Excitation, common_seed: int = 0) -> Excitation:
-        """``own`` in this spec's condition (:func:`on_duty`)."""
+        """``own`` at rest once sure (when :attr:`rest` is set) in this spec's condition
+        (:func:`on_duty`)."""
+        if self.rest is not None:
+            own = RestWhenSure(own, self.rest)
         return on_duty(self.condition, own, self.budget, common_seed)
 
     def in_scenario(self, condition: str, budget: float) -> AgentSpec:

@@ -75,6 +75,10 @@ class TrainConfig:
     ``log_belief``, shared); see :class:`agents.crew.Crew`."""
     energy_weight: float | None = None
     """Reward lost per metre of wheel travel; None keeps the scenario's ``reward.energy_weight``."""
+    rest: float | None = None
+    """The belief at which a robot holds still until the next picture, in (0.5, 1]
+    (``baselines.excitations.rest.RestWhenSure``; saved in the agent's spec, so it rests where
+    it runs as it did in training); None: it chooses a candidate at every picture."""
     hidden: int = 64
     """Width of the candidate scorer's encodings (:class:`agents.features.CandidateScorer`)."""
     imitation: int = 0
@@ -150,14 +154,18 @@ class TrainConfig:
         check_number("torch_threads", self.torch_threads, 1, 1024, integer=True)
         if self.name is not None and not re.fullmatch(r"[A-Za-z0-9._-]+", self.name):
             raise ValueError(f"name must use letters, digits, '.', '_' or '-', got {self.name!r}")
+        self.spec()  # a bad rest fails here
         self.env_config()  # a bad scenario fails here, before any work
 
     def spec(self) -> AgentSpec:
         """The agent this run trains (:class:`agents.spec.AgentSpec`), built from this config's
-        ``condition``, ``budget``, ``reward``, ``information_weight`` and ``energy_weight``;
+        ``condition``, ``budget``, ``reward``, ``information_weight``, ``energy_weight`` and
+        ``rest``;
         saved with the agent."""
         reward = Reward(self.reward, self.information_weight, self.energy_weight)
-        return AgentSpec(reward=reward, condition=self.condition, budget=self.budget)
+        return AgentSpec(
+            reward=reward, condition=self.condition, budget=self.budget, rest=self.rest
+        )
 
     def env_config(self) -> EnvConfig:
         """The scenario's config (with ``energy_weight`` applied)."""

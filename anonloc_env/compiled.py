@@ -442,6 +442,90 @@ def pairs_within(
 
 
 @jit
+def forward_pairs(xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """``separation.pairs_within_self``'s grid search for points ``xy`` ``(n, 2)``, ``n >= 2``:
+    the same cells, keys, stable order and forward ranges, each listed pair ``(i, j)`` (``i <
+    j``) in the grid search's order. A pair whose squared distance is clearly within the radius
+    (or clearly beyond it: dropped) is decided here; ``unsure`` lists those within a millionth
+    of the radius, which the caller decides by numpy's complex modulus, as the grid search
+    does. Returns ``(pairs (P, 2), unsure)``."""
+    n = xy.shape[0]
+    x, y = xy[:, 0], xy[:, 1]
+    x0, y0 = x.min(), y.min()
+    key = np.empty(n, dtype=np.int64)
+    top = np.int64(0)
+    for p in range(n):
+        row = np.int64(math.floor((y[p] - y0) / radius)) + 1
+        if row > top:
+            top = row
+        key[p] = row
+    stride = top + 2
+    for p in range(n):
+        key[p] += np.int64(math.floor((x[p] - x0) / radius)) * stride
+    order = np.argsort(key, kind="mergesort")  # stable, as numpy's
+    keys = key[order]
+    inside, outside = radius * radius * (1.0 - 1e-6), radius * radius * (1.0 + 1e-6)
+    # The same column first, for every point (the rest of its cell and the cell above); then
+    # the next column (the cells beside, below-beside and above-beside).
+    lo, hi = np.empty((2, n), dtype=np.int64), np.empty((2, n), dtype=np.int64)
+    total = 0
+    for p in range(n):
+        lo[0, p], hi[0, p] = p + 1, np.searchsorted(keys, keys[p] + 1, side="right")
+        lo[1, p] = np.searchsorted(keys, keys[p] + (stride - 1), side="left")
+        hi[1, p] = np.searchsorted(keys, keys[p] + (stride + 1), side="right")
+        total += (hi[0, p] - lo[0, p]) + (hi[1, p] - lo[1, p])
+    pairs = np.empty((total, 2), dtype=np.int64)
+    unsure = np.empty(total, dtype=np.int64)
+    count, doubt = 0, 0
+    for part in range(2):
+        for p in range(n):
+            a = order[p]
+            for q in range(lo[part, p], hi[part, p]):
+                b = order[q]
+                dx, dy = x[b] - x[a], y[b] - y[a]
+                d2 = dx * dx + dy * dy
+                if d2 > outside:
+                    continue
+                if not d2 < inside:
+                    unsure[doubt] = count
+                    doubt += 1
+                pairs[count, 0], pairs[count, 1] = min(a, b), max(a, b)
+                count += 1
+    return pairs[:count].copy(), unsure[:doubt].copy()
+
+
+@jit
+def interval_step(
+    before: np.ndarray,
+    now: np.ndarray,
+    bumper: np.ndarray,
+    speed: np.ndarray,
+    bounds: np.ndarray,
+    sums: np.ndarray,
+    push_sum: np.ndarray,
+) -> bool:
+    """``odometry.IntervalStatistics.add_motion``: one control step of the robots' own odometry
+    ``(R, 3)`` from ``before`` to ``now``, contacts ``bumper`` (bool) at commanded ``speed``;
+    ``bounds``: ``v_max`` and ``dt``. Adds into ``sums`` ``(4, R)`` (path, squared distances,
+    squared turns, pushes) and ``push_sum`` ``(R, 2)``; returns whether any robot touched."""
+    quarter, dt = 0.25 * bounds[0], bounds[1]
+    touched = False
+    for i in range(now.shape[0]):
+        if bumper[i]:  # push_bound and lateral, at the heading before the step
+            touched = True
+            bound = (abs(speed[i]) + quarter) * dt
+            sums[3, i] += bound
+            push_sum[i, 0] += bound * -math.sin(before[i, 2])
+            push_sum[i, 1] += bound * math.cos(before[i, 2])
+        distance = math.hypot(now[i, 0] - before[i, 0], now[i, 1] - before[i, 1])
+        turn = now[i, 2] - before[i, 2]
+        sums[0, i] += distance
+        sums[1, i] += distance * distance
+        sums[2, i] += turn * turn
+    return touched
+
+
+@jit
 def _block_sum(a: np.ndarray, start: int, n: int) -> float:
     """numpy's pairwise sum of ``a[start:start + n]``, ``n <= 128``: in order below 8 items,
     else eight running sums combined as a tree, then the rest in order."""

@@ -115,12 +115,34 @@ class IntervalStatistics:
 
     def clear(self) -> None:
         """Start a new interval."""
-        self.path = np.zeros(self.n)
-        self.sum_ds2 = np.zeros(self.n)
-        self.sum_dth2 = np.zeros(self.n)
-        self.push = np.zeros(self.n)
+        # One array, so that the compiled step (compiled.interval_step) takes it in one piece.
+        self._sums = np.zeros((4, self.n))
+        self.path, self.sum_ds2, self.sum_dth2, self.push = self._sums
         self.push_sum = np.zeros((self.n, 2))
         self.contacts = False
+
+    def add_motion(
+        self, before: np.ndarray, now: np.ndarray, bumper: np.ndarray, speed: np.ndarray
+    ) -> None:
+        """One control step from the robots' own odometry: ``(R, 3)`` ``(dx, dy, dphi)`` since
+        the last picture ``before`` and ``now`` the step, contacts ``bumper`` ``(R,)`` during it
+        at commanded ``speed`` ``(R,)`` (m/s)."""
+        arrays = (before, now, speed)
+        if (
+            compiled.mode() is not None
+            and bumper.dtype == np.bool_
+            and all(a.dtype == np.float64 for a in arrays)
+        ):  # the same floats, one call
+            bounds = np.array([self.v_max, self.dt])
+            sums, push_sum = self._sums, self.push_sum
+            if compiled.interval_step(before, now, bumper, speed, bounds, sums, push_sum):
+                self.contacts = True
+            return
+        increment = now - before
+        if bumper.any():
+            who = np.flatnonzero(bumper)
+            self.add_contacts(who, speed[who], before[who, 2])
+        self.add_step(np.hypot(increment[:, 0], increment[:, 1]), increment[:, 2].copy())
 
     def add_step(self, distance: np.ndarray, turn: np.ndarray) -> None:
         """One control step: ``distance`` rolled (>= 0) and ``turn`` (rad), both ``(N,)``;

@@ -148,20 +148,14 @@ class OdometryLog:
                 [np.broadcast_to(np.asarray(x, np.float64), shape) for x in (v, w)]
             )
 
-    def _add(self, increment: np.ndarray, bumper: np.ndarray) -> None:
-        if bumper.any():
-            who = np.flatnonzero(bumper)
-            self.stats.add_contacts(who, self.speed[who], self.last[who, 2])
-        self.stats.add_step(np.hypot(increment[:, 0], increment[:, 1]), increment[:, 2].copy())
-
     def observe(self, step: Step) -> Interval | None:
         """Take in one step; return the interval that ended if a picture arrived."""
         if not step.new_picture:
-            self._add(step.odometry - self.last, step.bumper)
+            self.stats.add_motion(self.last, step.odometry, step.bumper, self.speed)
             self.last = step.odometry
             return None
         # The last step before the picture is seen only through the whole interval's motion.
-        self._add(step.between - self.last, step.bumper)
+        self.stats.add_motion(self.last, step.between, step.bumper, self.speed)
         interval = self.stats.interval(step.between[:, :2], step.between[:, 2], self.held)
         self.reset()
         self.last = step.odometry

@@ -277,7 +277,7 @@ class World:
             heading = self._heading
             np.multiply(speed, heading, out=self._force)
             self.batch.write()
-            self.space.step(h)
+            self.batch.step(h)
             state = self.batch.read_state()  # (N, 5): the poses as written, solved velocities
             start = state[:, :2].view(np.complex128)[:, 0]
             np.multiply(state[:, 3:].view(np.complex128)[:, 0], h, out=z)
@@ -309,7 +309,7 @@ class World:
             heading, spare = self._heading, self._spare_heading
             np.multiply(speed, heading, out=self._force)
             self.batch.write()
-            self.space.step(h)
+            self.batch.step(h)
             state = self.batch.read_state()
             kernels.move(
                 state, self._state, n, h, turn, spare, self._low, self._high,
@@ -393,6 +393,7 @@ class BodyBatch:
             self._state_call = call(self._state_buffer, _WRITE_FIELDS, True)
             self._get_call = call(self._get_buffer, _STATE_FIELDS, False)
             self._each_body = lib.cpSpaceEachBody
+            self._space_step = lib.cpSpaceStep
             self._ffi = ffi
         except Exception as error:  # any surprise in private internals: use the public path
             warnings.warn(
@@ -415,6 +416,22 @@ class BodyBatch:
         array.num = 0
         self._each_body(*call)
         array.num = size
+
+    def step(self, dt: float) -> None:
+        """``space.step(dt)``: the C step alone while the space has nothing queued that its
+        Python wrapper would handle (bodies to check, shapes to add, remove or release,
+        post-step callbacks; the world registers no collision handler), else the wrapper."""
+        space = self.space
+        if self.fast and not (
+            space._bodies_to_check
+            or space._add_later
+            or space._remove_later
+            or space._post_step_callbacks
+            or space._removed_shapes
+        ):
+            self._space_step(space._space, dt)
+            return
+        space.step(dt)
 
     def write(self) -> None:
         """Set every body's position, angle, velocity and force from the ``state`` array."""

@@ -14,7 +14,9 @@ Each measurement is a fresh interpreter (``PYTHONPATH`` set to one checkout or t
 builds the env (``--copies`` copies of the ``default`` scenario with N robots, the ``team``
 reward; at N = 30 with clutter: 8 % misses and 2 false positives per picture), resets it with
 seed 0, takes one untimed step, then steps it with uniform random candidate choices until
-``--seconds`` have passed, and prints the decisions per second (slots x steps / s). The two
+``--seconds`` have passed, and prints the decisions per second (slots x steps / s; with
+``--clock cpu`` per second of the worker's own CPU time, which a loaded machine's other
+processes do not add to, though they still share its caches). The two
 checkouts run one after the other, in an order that alternates between rounds; the figures are
 medians over the rounds and the ratio is the median of the per-round ratios, so that a slow spell
 of the shared machine weighs on both sides.
@@ -43,6 +45,7 @@ import numpy as np
 from anonloc_env import make_config
 from agents.vec import AnonLocVecEnv
 n, copies, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[4])
+clock = time.process_time if sys.argv[5] == "cpu" else time.perf_counter
 clutter = sys.argv[3] == "1"
 camera = {"p_miss": 0.08, "false_positives": 2.0} if clutter else {}
 config = make_config(n_robots=n, camera=camera)
@@ -58,11 +61,11 @@ def step():
     vec.step_async(rng.integers(0, 8, vec.num_envs))
     vec.step_wait()
 step()
-steps, start = 0, time.perf_counter()
-while time.perf_counter() - start < seconds or steps < 2:
+steps, start = 0, clock()
+while clock() - start < seconds or steps < 2:
     step()
     steps += 1
-print(steps * vec.num_envs / (time.perf_counter() - start))
+print(steps * vec.num_envs / (clock() - start))
 """
 
 
@@ -73,13 +76,14 @@ from agents.train import build_model, make_vec_env
 from benchmarks.train_bundled import BUNDLED
 torch.set_num_threads(1)
 rollouts = int(sys.argv[1])
+clock = time.process_time if sys.argv[2] == "cpu" else time.perf_counter
 vec = make_vec_env(BUNDLED)
 model = build_model(BUNDLED, vec)
 per_rollout = model.n_steps * vec.num_envs
 model.learn(total_timesteps=per_rollout)  # untimed: the first reset and rollout
-start = time.perf_counter()
+start = clock()
 model.learn(total_timesteps=rollouts * per_rollout, reset_num_timesteps=False)
-print(rollouts * per_rollout / (time.perf_counter() - start))
+print(rollouts * per_rollout / (clock() - start))
 """
 
 
@@ -116,10 +120,18 @@ def main() -> None:
     parser.add_argument(
         "--growth", action="store_true", help="also fit how a decision's cost grows with N"
     )
+    parser.add_argument(
+        "--clock",
+        choices=["wall", "cpu"],
+        default="wall",
+        help="time by the wall clock (default) or by the worker's own CPU time (what the other "
+        "processes on a shared machine do not add to)",
+    )
     args = parser.parse_args()
     sides = {"old": args.old.resolve(), "new": args.new.resolve()}
     if args.train:
-        alternate(sides, args.rounds, TRAIN, [str(args.train)], "anonloc train (mixed)")
+        work = [str(args.train), args.clock]
+        alternate(sides, args.rounds, TRAIN, work, "anonloc train (mixed)")
         return
     print("| N | copies | clutter | old decisions/s | new decisions/s | new / old |")
     print("|---:|---:|---|---:|---:|---:|")
@@ -128,7 +140,7 @@ def main() -> None:
         for copies in args.copies:
             clutter = n == 30
             label = f"{n} | {copies} | {'8 % misses, 2 FP' if clutter else 'none'}"
-            work = [str(n), str(copies), "1" if clutter else "0", str(args.seconds)]
+            work = [str(n), str(copies), "1" if clutter else "0", str(args.seconds), args.clock]
             for side, value in alternate(sides, args.rounds, WORKER, work, label).items():
                 medians[side].append(value)
     if args.growth:

@@ -19,6 +19,7 @@ from agents.spec import AgentSpec, Reward, saved_spec
 from agents.train import TrainConfig
 from agents.vec import AnonLocVecEnv
 from baselines.excitations import SwarmDuty
+from baselines.excitations.rest import RestWhenSure
 
 CONFIG = anonloc_env.make_config(n_robots=3, arena_size=(2.0, 2.0), max_cycles=60)
 
@@ -51,6 +52,34 @@ def test_the_train_config_builds_the_spec_once() -> None:
     assert config.spec() == AgentSpec(
         reward=Reward("team", 1.0, 0.5), condition="swarm", budget=0.3
     )
+    assert TrainConfig(rest=0.999).spec().rest == 0.999
+
+
+@pytest.mark.parametrize("rest", [0.5, 1.01, float("nan"), -1.0])
+def test_a_bad_rest_is_refused_naming_it(rest: float) -> None:
+    with pytest.raises(ValueError, match="rest must be"):
+        AgentSpec(rest=rest)
+    with pytest.raises(ValueError, match="rest must be"):
+        TrainConfig(rest=rest)
+
+
+def test_an_agent_that_rests_is_run_at_rest(tmp_path: Path) -> None:
+    """``rest`` is saved with the agent and read back: the loaded agent is the policy inside
+    ``RestWhenSure`` (inside ``SwarmDuty`` on swarm duty), and an agent saved without it is
+    not wrapped."""
+    spec = AgentSpec(condition="swarm", budget=0.3, rest=0.9995)
+    path = _saved(tmp_path, spec)
+    assert saved_spec(path) == spec
+    loaded = load_agent(path)
+    assert isinstance(loaded, SwarmDuty)
+    assert isinstance(loaded.deviation, RestWhenSure)
+    assert loaded.deviation.sure == 0.9995
+    assert isinstance(loaded.deviation.inner, LearnedExcitation)
+    plain = load_agent(_saved(tmp_path, AgentSpec(), "plain.zip"))
+    assert isinstance(plain, LearnedExcitation)
+    built = spec.excitation(LearnedExcitation(load_model(path)))
+    assert isinstance(built, SwarmDuty)
+    assert isinstance(built.deviation, RestWhenSure)
 
 
 def test_the_spec_round_trips_through_a_saved_agent(tmp_path: Path) -> None:

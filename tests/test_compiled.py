@@ -14,9 +14,9 @@ from anonloc_env import compiled, make_config
 from anonloc_env.config import RobotConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.neighbours import pairs_within
-from anonloc_env.odometry import Odometry
+from anonloc_env.odometry import IntervalStatistics, Odometry
 from anonloc_env.rewards import EnergyCost
-from anonloc_env.separation import Separator
+from anonloc_env.separation import Separator, pairs_within_self
 from anonloc_env.world import WheelTravel
 
 pytest.importorskip("numba")
@@ -124,6 +124,55 @@ def test_the_neighbour_search_finds_the_same_pairs(
     assert len(plain[0]) > 0
     for x, y in zip(fast, plain, strict=True):
         assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_neighbour_list_is_the_grid_searchs(seed: int, request: pytest.FixtureRequest) -> None:
+    """The position correction's neighbour list (``pairs_within_self``) by its kernel and by
+    numpy: the same pairs in the same order, on random crowds and on grids (distances of exactly
+    the radius and a hair within or beyond it, duplicates, points on cell borders)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 400))
+    if seed < 3:
+        xy = rng.integers(0, 12, (n, 2)).astype(float) * 0.125
+        xy[: n // 3] += rng.choice([-1e-17, 0.0, 1e-17], (n // 3, 2))
+        radius = 0.125 * float(rng.integers(1, 3))
+    else:
+        xy = rng.uniform(0, float(rng.uniform(1.0, 20.0)), (n, 2))
+        radius = float(rng.uniform(0.05, 1.5))
+    z = xy.view(np.complex128)[:, 0]
+    fast = pairs_within_self(z, radius)
+    request.getfixturevalue("numpy_only")
+    plain = pairs_within_self(z, radius)
+    assert len(plain) > 0
+    assert fast.dtype == plain.dtype
+    np.testing.assert_array_equal(fast, plain)
+
+
+def _interval(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """A robot log's statistics over 30 random steps (pushes on a third of them), and the
+    interval they close."""
+    stats = IntervalStatistics(25, 0.3, 0.05)
+    before = np.zeros((25, 3))
+    for _ in range(30):
+        now = before + rng.normal(0.0, 0.01, (25, 3))
+        bumper = rng.random(25) < 0.3
+        stats.add_motion(before, now, bumper, rng.uniform(-0.3, 0.3, 25))
+        before = now
+    interval = stats.interval(before[:, :2], before[:, 2])
+    assert interval.push is not None
+    assert interval.push_sum is not None
+    return (interval.path, interval.sum_ds2, interval.sum_dth2, interval.push, interval.push_sum)
+
+
+def test_the_robots_interval_statistics_are_numpys(request: pytest.FixtureRequest) -> None:
+    """A robot log's path, squared increments and contact bounds (``add_motion``): the kernel's
+    floats are numpy's."""
+    fast = _interval(np.random.default_rng(3))
+    request.getfixturevalue("numpy_only")
+    plain = _interval(np.random.default_rng(3))
+    for x, y in zip(fast, plain, strict=True):
         np.testing.assert_array_equal(x, y)
 
 

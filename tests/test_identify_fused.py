@@ -14,8 +14,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from test_identify_paths import DRAWN, RECORDED, Episode, _record
 
-from anonloc_env import compiled
-from anonloc_env.identify import Identifier, SensorModel, fused, kernels
+from anonloc_env import compiled, make_config
+from anonloc_env.identify import Identifier, SensorModel, fused, fused_calls
+from anonloc_env.identify.others import Links, links_between
 from anonloc_env.identify.tracks import FIELDS
 
 pytest.importorskip("numba")
@@ -40,17 +41,17 @@ def _run(model: SensorModel, n: int, episode: Episode, kernels_on: bool) -> list
 
 @contextmanager
 def _missed_calls() -> Iterator[list[bool]]:
-    """For each call of ``kernels.known_compiled``: whether its tracks were missed in the
+    """For each call of ``fused_calls.known_compiled``: whether its tracks were missed in the
     previous picture (``Builder.from_missed``) rather than anchored at a row of it."""
     seen: list[bool] = []
-    kernel: Callable[..., Any] = kernels.known_compiled
+    kernel: Callable[..., Any] = fused_calls.known_compiled
 
     def spy(sub: Any, *args: Any) -> Any:
         seen.append(bool((sub.row < 0).all()))
         return kernel(sub, *args)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(kernels, "known_compiled", spy)
+        patch.setattr(fused_calls, "known_compiled", spy)
         yield seen
 
 
@@ -95,6 +96,29 @@ def test_recorded_episodes_are_the_same_to_the_bit(name: str) -> None:
     _same(on, off)
 
 
+@pytest.mark.parametrize("name", ["no-headings", "scale-unknown"])
+def test_mixed_blocks_are_split_by_robot(name: str) -> None:
+    """Where some robots' tracks do not know their heading or scale yet, the robots that do take
+    the compiled path and the others the general one, in the same call (both ran), and the
+    tracks stay those of the numpy path to the bit."""
+    overrides, scale_known, _ = RECORDED[name]
+    config, episode = _record(3, 15, **overrides)
+    model = SensorModel.from_config(config, scale_known=scale_known)
+    splits: list[tuple[int, int]] = []
+    split: Callable[..., Any] = fused_calls.known_robots
+
+    def spy(tracks: Any, index: np.ndarray) -> Any:
+        known, rest = split(tracks, index)
+        splits.append((len(known), len(rest)))
+        return known, rest
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fused_calls, "known_robots", spy)
+        on = _run(model, config.n_robots, episode, kernels_on=True)
+    assert any(known and rest for known, rest in splits)
+    _same(on, _run(model, config.n_robots, episode, kernels_on=False))
+
+
 def test_a_large_crowd_is_the_same_to_the_bit() -> None:
     """300 robots at 4 per m^2 (pushes, the others persisting): the same to the bit."""
     config, episode = _record(
@@ -125,3 +149,43 @@ def test_the_stable_order_is_numpys() -> None:
         order = np.empty(n, dtype=np.int64)
         fused._stable_order(key, n, order)
         np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
+
+
+def _links(
+    model: SensorModel, on: bool, prev: np.ndarray, rows: np.ndarray, before: Links | None
+) -> Links | None:
+    with pytest.MonkeyPatch.context() as patch:
+        if not on:
+            patch.setattr(compiled, "_MODE", [None])
+        return links_between(model, prev, rows, 3.0, 0.5, before)
+
+
+def test_the_others_links_are_the_same_to_the_bit() -> None:
+    """:func:`links_between` by the kernels of :mod:`~anonloc_env.identify.fused_links` and by
+    numpy: every field equal, on random pictures from sparse (rows alone) to dense (components
+    too big to sum), with and without the previous link's continuations."""
+    config = make_config(n_robots=30, camera={"p_miss": 0.08, "false_positives": 2.0})
+    model = SensorModel.from_config(config)
+    rng = np.random.default_rng(1)
+    fields = ["ends", "starts", "keys", "extra", "moved_row", "moved", "moved_p"]
+    seen = {"exact": 0, "big": 0, "moved": 0}
+    for _ in range(200):
+        n_a, n_b = rng.integers(0, 40, 2)
+        spread = rng.uniform(20.0, 400.0)
+        prev, rows = rng.uniform(0, spread, (n_a, 3)), rng.uniform(0, spread, (n_b, 3))
+        later = rows + rng.normal(0.0, 3.0, rows.shape)
+        on: Links | None = None
+        off: Links | None = None
+        for frm, to in ((prev, rows), (rows, later)):
+            on = _links(model, True, frm, to, on)
+            off = _links(model, False, frm, to, off)
+            assert on is not None
+            assert off is not None
+            for f in fields:
+                x, y = getattr(on, f), getattr(off, f)
+                assert x.dtype == y.dtype, f
+                np.testing.assert_array_equal(x, y, err_msg=f)
+            seen["exact"] += len(off.keys) > 0
+            seen["big"] += bool((off.ends == 0.0).any())
+            seen["moved"] += len(off.moved_row) > 0
+    assert min(seen.values()) > 10, seen

@@ -23,7 +23,7 @@ from test_identify_reference import _model, simulate
 
 import anonloc_env
 from anonloc_env.config import EnvConfig
-from anonloc_env.identify import Identifier, Interval, SensorModel, kernels
+from anonloc_env.identify import Identifier, Interval, SensorModel, fused_calls, kernels
 from anonloc_env.rewards import StepContext
 
 #: Largest difference allowed between the fast and the general path's beliefs where they are not
@@ -67,10 +67,10 @@ def _beliefs(model: SensorModel, n: int, episode: Episode, fast: bool) -> list[n
 
 
 @contextmanager
-def _calls(name: str) -> Iterator[list[int]]:
-    """Count the candidates kernel ``name`` scores while the block runs."""
+def _calls(name: str, module: Any = kernels) -> Iterator[list[int]]:
+    """Count the candidates kernel ``name`` (of ``module``) scores while the block runs."""
     seen: list[int] = []
-    kernel: Callable[..., Any] = getattr(kernels, name)
+    kernel: Callable[..., Any] = getattr(module, name)
 
     def spy(*args: Any, **kwargs: Any) -> Any:
         out = kernel(*args, **kwargs)
@@ -78,7 +78,7 @@ def _calls(name: str) -> Iterator[list[int]]:
         return out
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(kernels, name, spy)
+        patch.setattr(module, name, spy)
         yield seen
 
 
@@ -112,7 +112,7 @@ def test_fast_and_general_paths_agree_on_recorded_episodes(name: str) -> None:
     with (
         _calls("first_leg") as first,
         _calls("known_children") as known,
-        _calls("known_compiled") as known_compiled,  # the same floats (test_identify_fused)
+        _calls("known_compiled", fused_calls) as known_compiled,  # test_identify_fused: same bits
     ):
         fast = _beliefs(model, config.n_robots, episode, fast=True)
     with _calls("first_leg") as first_general, _calls("known_children") as known_general:

@@ -88,8 +88,9 @@ def test_physics_steps_once_per_step_whatever_the_agent_count() -> None:
 
 
 def test_direct_batch_calls_match_pymunk_batch() -> None:
-    """``BodyBatch`` calls pymunk's batch C iterators directly; the public ``pymunk.batch``
-    functions must give the very same motion, bit for bit."""
+    """``BodyBatch`` calls pymunk's batch C iterators and its C step directly; the public
+    ``pymunk.batch`` functions and ``Space.step`` must give the very same motion, bit for
+    bit."""
     worlds = []
     for fast in (True, False):
         env = anonloc_env.parallel_env(n_robots=30, arena_size=(2.0, 2.0), dt=0.05)

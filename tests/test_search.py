@@ -22,10 +22,11 @@ from agents.conditions import ConditionRanges
 from agents.features import LinearScorer
 from agents.linear_agent import linear_spec, save_linear_agent
 from agents.linear_terms import LINEAR_TERMS, linear_terms
-from agents.policy import load_model
-from agents.search import LinearChooser, SearchConfig, search
-from agents.spec import AgentSpec
+from agents.policy import load_agent, load_model
+from agents.search import LinearChooser, SearchConfig, chooser, search
+from agents.spec import AgentSpec, saved_spec
 from baselines.excitations import SwarmDuty
+from baselines.excitations.rest import RestWhenSure
 from baselines.registry import make_excitation
 from baselines.runner import run_episode
 
@@ -138,6 +139,8 @@ def test_the_spec_records_the_scorer_and_its_terms() -> None:
         ("std", 0.0, "std"),
         ("step_size", -1.0, "step_size"),
         ("energy_weight", -1.0, "energy_weight"),
+        ("rest", 0.5, "rest must be"),
+        ("rest", 1.5, "rest"),
     ],
 )
 def test_search_config_is_checked_when_built(field: str, value: object, message: str) -> None:
@@ -198,3 +201,27 @@ def test_anonloc_search_runs_as_users_run_it(tmp_path: Path) -> None:
     assert bad.returncode != 0
     assert "pairs" in bad.stderr
     assert not (tmp_path / "other" / "search.json").exists()
+
+
+@pytest.mark.parametrize("swarm", [False, True])
+def test_zero_weights_at_rest_are_uniform_rest_bit_for_bit(swarm: bool) -> None:
+    """The search's ablation with ``rest`` is ``uniform-rest`` itself, and resting changes the
+    episode (robots that are sure stand still)."""
+    zero = _episode(chooser(np.zeros(len(LINEAR_TERMS)), 0.999)(), swarm)
+    assert zero == _episode(make_excitation("uniform-rest"), swarm)
+    assert zero != _episode(make_excitation("uniform"), swarm)
+
+
+def test_a_search_at_rest_saves_an_agent_that_rests(tmp_path: Path) -> None:
+    """``SearchConfig.rest`` reaches the saved spec, and the loaded agent rests as it was
+    searched: its episode equals the searched weights wrapped in ``RestWhenSure``."""
+    config = dataclasses.replace(TINY, generations=1, rest=0.999)
+    mu = search(config, tmp_path / "s", log=lambda _: None)
+    history = json.loads((tmp_path / "s" / "search.json").read_text())["history"]
+    assert history[0]["free_pictures"] == 1.0  # the start is uniform-rest itself
+    path = tmp_path / "s" / "agent.zip"
+    assert saved_spec(path) == dataclasses.replace(linear_spec(), rest=0.999)
+    loaded = load_agent(path, condition="free")
+    assert isinstance(loaded, RestWhenSure)
+    assert loaded.sure == 0.999
+    assert _episode(loaded, False) == _episode(chooser(mu, 0.999)(), False)

@@ -18,7 +18,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify import kernels
+from anonloc_env.identify import fused_calls, kernels
 from anonloc_env.identify.arrays import group_starts, rank_in_group
 from anonloc_env.identify.gate import Gate, uniform_gate
 from anonloc_env.identify.likelihood import Pairs, Scoring, children
@@ -32,14 +32,6 @@ from anonloc_env.odometry import Interval
 MISSED_PER_ROBOT = 32
 #: Candidates of the anchored tracks scored per block (whole robots, about this many).
 ANCHORED_BLOCK = 65536
-
-
-def _all_known(tracks: Tracks, index: np.ndarray) -> bool:
-    """Whether every track ``index`` knows its heading and scale and carries no motion (what
-    :func:`~anonloc_env.identify.kernels.known_children` asks of a block)."""
-    sub = tracks.select(index)
-    known = np.isfinite(sub.theta).all() and np.isfinite(sub.log_s).all()
-    return bool(known and not (sub.turn.any() or sub.carry.any()))
 
 
 class Builder(NamedTuple):
@@ -70,11 +62,16 @@ class Builder(NamedTuple):
         prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
         # i_pair is sorted: the pairs of row r are offsets[r]:offsets[r + 1].
         offsets = np.searchsorted(i_pair, np.arange(len(prev) + 1), side="left")
-        if self.fast and compiled.mode() is not None and _all_known(tracks, anchored):
-            sub = tracks.select(anchored)
-            lo, hi = offsets[sub.row], offsets[sub.row + 1]
-            links, scoring = self.prior.links, self.scoring
-            return kernels.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
+        fast = Tracks.empty()
+        if self.fast and compiled.mode() is not None:  # robots that know heading and scale
+            sure, anchored = fused_calls.known_robots(tracks, anchored)
+            if len(sure):
+                sub = tracks.select(sure)
+                lo, hi = offsets[sub.row], offsets[sub.row + 1]
+                links, scoring = self.prior.links, self.scoring
+                fast = fused_calls.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
+            if not len(anchored):
+                return fast
         row = tracks.row[anchored]
         counts = offsets[row + 1] - offsets[row]
         robot_start = group_starts(tracks.slot[anchored])
@@ -103,7 +100,7 @@ class Builder(NamedTuple):
             else:
                 parents = block.take(parent)
                 out.append(children(parents, rows, cand, interval, pix_var, bg, scoring))
-        return Tracks.concat(out)
+        return fused_calls.merge_by_robot(fast, Tracks.concat(out))
 
     def from_missed(self, unseen: Tracks, pairs: Pairs, radius: float) -> Tracks:
         """The children of tracks ``unseen``, each missed in the previous picture: the rows
@@ -114,16 +111,25 @@ class Builder(NamedTuple):
         carried = np.hypot(unseen.carry[:, 0], unseen.carry[:, 1])
         wider = radius + model.scale_bounds[1] * carried + GATE_SIGMAS * np.sqrt(unseen.pos_var)
         a, b, _ = pairs_within_each(unseen.pos, rows[:, :2], np.maximum(wider, 1e-9))
-        if self.fast and compiled.mode() is not None and _all_known(unseen, np.arange(len(unseen))):
-            # a is sorted: track h's candidates are b[lo[h]:hi[h]].
-            lo = np.searchsorted(a, np.arange(len(unseen)), side="left")
-            hi = np.searchsorted(a, np.arange(len(unseen)), side="right")
-            links, scoring = self.prior.links, self.scoring
-            return kernels.known_compiled(unseen, lo, hi, b, pairs, links, scoring)
+        fast = Tracks.empty()
+        if self.fast and compiled.mode() is not None:  # robots that know heading and scale
+            known, rest = fused_calls.known_robots(unseen, np.arange(len(unseen)))
+            if len(known):  # a is sorted: track h's candidates are b[lo[h]:hi[h]].
+                lo = np.searchsorted(a, known, side="left")
+                hi = np.searchsorted(a, known, side="right")
+                sub, links, scoring = unseen.select(known), self.prior.links, self.scoring
+                fast = fused_calls.known_compiled(sub, lo, hi, b, pairs, links, scoring)
+            if not len(rest):
+                return fast
+            if len(known):  # the others' own candidates, renumbered
+                a, b = fused_calls.renumbered(a, b, rest, len(unseen))
+                unseen = unseen.select(rest)
         gate = Gate.of(unseen, interval, model, pix_var, self.scoring.theta_var)
         keep = gate.passes(a, rows, b)
         bg = self._link_bg(unseen.row[a[keep]], b[keep], pairs.log_bg)
-        return children(unseen.take(a[keep]), rows, b[keep], interval, pix_var, bg, self.scoring)
+        parents = unseen.take(a[keep])
+        slow = children(parents, rows, b[keep], interval, pix_var, bg, self.scoring)
+        return fused_calls.merge_by_robot(fast, slow)
 
     def from_uniform(
         self, live: np.ndarray, pairs: Pairs, dist: np.ndarray, var_d: np.ndarray

@@ -18,6 +18,13 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   :attr:`~anonloc_env.identify.SensorModel.crowd_push_share` (1 from ``from_config``) instead of
   ``push_share``. A slide then informs the heading little (the Kalman gain along the robot's
   side, which is where a heading error shows, is small), and the position still counts.
+* But its likelihood mixes those wide pushes (weight
+  :attr:`~anonloc_env.identify.SensorModel.crowd_push_tail`, 0.1) with a bump's narrow ones
+  (:func:`mix_pushes`): most slides are short, and with the wide pushes alone a neighbour pressed
+  against the robot fitted almost as well as its own row, so decided robots went undecided
+  whenever they were pressed. A *jammed* robot, pushed more than :data:`JAM` intervals in a row,
+  keeps the wide pushes alone (robots jammed together for tens of intervals were taken for one
+  another with the mixture).
 * Its track may have broken (a slide taken for a heading, a swap with a pressed neighbour):
   with probability ``1 - exp(-push / contact_break)`` a robot's weight returns to the uniform
   weight over the previous picture's rows, so an identity lost in a jam is found again and the

@@ -13,13 +13,15 @@ import numpy as np
 from anonloc_env import compiled
 from anonloc_env.identify import fused, kernels
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
-from anonloc_env.identify.camera_pose import Registration
+from anonloc_env.identify.camera_pose import Registration, apply
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
 from anonloc_env.identify.contact import break_tracks, pressed_interval
+from anonloc_env.identify.footprint import Footprint
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.likelihood import Pairs, Scoring
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_background
 from anonloc_env.identify.others import Links, links_between
+from anonloc_env.identify.out_of_view import OutOfView
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import pairs_within
 from anonloc_env.odometry import Interval
@@ -78,6 +80,7 @@ class Identifier:
         self._missing: np.ndarray | None = None
         self.pictures = 0
         self._pushed_run = np.zeros(self.n, np.int64)  # intervals in a row each robot was pushed
+        self._view: OutOfView | None = None  # the newest picture's footprint (a moving camera)
         if self.registration is not None:
             self.registration.reset()
 
@@ -100,20 +103,29 @@ class Identifier:
         if self.registration is not None:
             rows = self.registration.register(rows)
         n_rows = len(rows)
-        log_bg = log_background(self.model, n_rows)
+        view = self._out_of_view()
+        log_bg = log_background(self.model, n_rows, 1.0 if view is None else view.footprint.share)
+        # A robot of unknown position: seen, missed, where (see out_of_view).
+        log_seen, log_unseen, edge_bias = self.log_pd, self.log_miss, None
+        if view is not None and self.registration is not None:
+            sigma = math.hypot(self.registration.prior.spread, self.registration.error)
+            log_seen, log_unseen, edge_bias = view.unknown(self._view, rows, sigma)
+        self._view = view
         if self.rows is None or interval is None:
             # A first picture (or one with no known motion before it): start from "unknown".
             parts: list[Tracks] = []
             before = np.zeros(self.n)
-            unanchored = before + self.log_miss
+            unanchored = before + log_unseen
             self.links = None
         else:
             interval = self._pressed(interval)
-            parts, unanchored = self._extend(rows, interval, log_bg)
+            parts, unanchored = self._extend(rows, interval, log_bg, view, log_unseen)
             before = self.unanchored
         bias = None if self.links is None else self.links.starts + log_bg
+        if edge_bias is not None:
+            bias = edge_bias if bias is None else bias + edge_bias
         # "Position unknown" before the picture: now seen at any row alike, or still unknown.
-        fresh = before + self.log_pd - math.log(self.model.image_area) - log_bg
+        fresh = before + log_seen - math.log(self.model.image_area) - log_bg
         self.uniform = fresh if n_rows else np.full(self.n, -np.inf)
         self.unanchored = unanchored
         self.rows = rows
@@ -121,6 +133,16 @@ class Identifier:
         self.pictures += 1
         self._normalise_and_prune(parts)
         self._compute_belief()
+
+    def _out_of_view(self) -> OutOfView | None:
+        """The newest registered picture's footprint (see
+        :mod:`anonloc_env.identify.footprint`), or None: every robot in view."""
+        view, reg = self.model.view, self.registration
+        if view is None or reg is None:
+            return None
+        corners = apply(reg.transform, reg.prior.centre, view.corners())
+        fp = Footprint.of(view, corners, reg.error)
+        return OutOfView(fp, self.model, self.log_pd, self.log_miss)
 
     # -- one interval ----------------------------------------------------------------------------
     def _pressed(self, interval: Interval) -> Interval:
@@ -145,9 +167,16 @@ class Identifier:
         return pressed_interval(interval, run, model.push_share, model.crowd_push_share)
 
     def _extend(
-        self, rows: np.ndarray, interval: Interval, log_bg: float
+        self,
+        rows: np.ndarray,
+        interval: Interval,
+        log_bg: float,
+        view: OutOfView | None,
+        log_unseen: float,
     ) -> tuple[list[Tracks], np.ndarray]:
-        """The new picture's tracks (in parts) and each robot's "position unknown" weight."""
+        """The new picture's tracks (in parts) and each robot's "position unknown" weight
+        (``view``: the footprint's misses, or None; ``log_unseen``: a robot of unknown
+        position missed)."""
         model = self.model
         assert self.rows is not None
         prev = self.rows
@@ -168,7 +197,7 @@ class Identifier:
         prior = kernels.Prior(self.uniform, self.row_bias, self.links)
         build = Builder(self.scoring, prior, self.log_miss, self.fast)
         parts: list[Tracks] = []
-        unanchored = self.unanchored + self.log_miss  # unknown before, missed again
+        unanchored = self.unanchored + log_unseen  # unknown before, missed again
 
         # 1. Explicit tracks anchored at a row of the previous picture: candidate rows by pairs.
         tracks = self.tracks
@@ -189,6 +218,8 @@ class Identifier:
         # PRUNE_NATS below its robot's best child would be pruned at once: it is not built.
         if len(tracks):
             floor = self._prune_floor([*parts, *anchored_uniform])
+            if view is not None:  # a track predicted out of view is missed at no cost
+                tracks = view.tracks(tracks, interval, pix_var, radius)
             continued, lost_slot, lost_logw = build.missed(tracks, interval, pix_var, floor)
             parts.append(continued)
             add_grouped(unanchored, lost_slot, lost_logw)
@@ -198,9 +229,12 @@ class Identifier:
             # carried (as many rows as a robot's tracks continued through a miss), or its
             # position is unknown again.
             if len(prev) <= MISSED_PER_ROBOT:
-                parts.append(build.uniform_missed(live, prev, interval, pix_var))
-            else:
+                missed_now = build.uniform_missed(live, prev, interval, pix_var)
+                parts.append(missed_now if view is None else view.uniform_missed(missed_now))
+            elif view is None:
                 build.uniform_lost(live, len(prev), unanchored)
+            else:
+                view.uniform_lost(live, prev, interval, pix_var, prior, unanchored)
         return [p for p in parts if len(p)], unanchored
 
     def _prune_floor(self, parts: list[Tracks]) -> np.ndarray:

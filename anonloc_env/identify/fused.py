@@ -19,6 +19,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.compiled import jit
+from anonloc_env.identify import fused_links
 
 
 @jit
@@ -290,6 +291,41 @@ def finish_known(
 
 
 @jit
+def general_inputs(
+    parents: np.ndarray,
+    fields: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    log_s: np.ndarray,
+    s: np.ndarray,
+    pos: np.ndarray,
+    slot: np.ndarray,
+    robots: np.ndarray,
+    cov: np.ndarray,
+    z: np.ndarray,
+) -> np.ndarray:
+    """The ``(17, K)`` input of :func:`general_kalman` for candidates of parent tracks
+    ``parents`` at rows ``z`` ``(K, >= 2)``: ``fields`` are the tracks' ``theta``, ``p_tt``,
+    ``p_ts``, ``p_ss`` and ``pos_var`` (each ``(H,)``, or ``(1,)`` where shared); ``log_s``
+    and ``s = exp(log_s)`` (numpy's) per candidate (or ``(1,)``); ``pos`` ``(H, 2)``, ``slot``
+    ``(H,)``; per robot ``robots`` ``(5, n)``: ``d`` (two rows), ``var_d``, ``dphi`` and
+    ``var_dphi``, and ``cov`` ``(n, 2, 2)`` the push covariance. Gathers what
+    ``fused_calls.general_step`` gathered in numpy (the same values)."""
+    theta, p_tt, p_ts, p_ss, pos_var = fields
+    count = parents.shape[0]
+    x = np.empty((17, count))
+    for k in range(count):
+        h = parents[k]
+        i = slot[h]
+        x[0, k], x[1, k], x[2, k] = _at(theta, h), _at(log_s, k), _at(p_tt, h)
+        x[3, k], x[4, k], x[5, k] = _at(p_ts, h), _at(p_ss, h), _at(s, k)
+        x[6, k], x[7, k] = robots[0, i], robots[1, i]
+        x[8, k], x[9, k] = z[k, 0] - pos[h, 0], z[k, 1] - pos[h, 1]
+        x[10, k], x[11, k], x[12, k] = cov[i, 0, 0], cov[i, 0, 1], cov[i, 1, 1]
+        x[13, k], x[14, k] = _at(pos_var, h), robots[2, i]
+        x[15, k], x[16, k] = robots[3, i], robots[4, i]
+    return x
+
+
+@jit
 def general_kalman(x: np.ndarray, pix_var: float, spread: float) -> np.ndarray:
     """:func:`~anonloc_env.identify.likelihood.kalman`'s general step (heading known, scale
     known or estimated, unseen pushes) of candidates ``x`` ``(17, K)``: the parent's ``theta``,
@@ -345,7 +381,8 @@ _LOADED: list[bool] = []
 
 def load() -> None:
     """Compile, or load from numba's cache, every kernel the identifier calls (those of this
-    module and :mod:`anonloc_env.compiled`'s neighbour search and leave-out sums), once per
+    module, of :mod:`~anonloc_env.identify.fused_links` and :mod:`anonloc_env.compiled`'s
+    neighbour search and leave-out sums), once per
     process, by calling each on a tiny input of the types the identifier passes: the time goes
     to building the identifier, not to its first pictures."""
     if _LOADED:
@@ -362,4 +399,17 @@ def load() -> None:
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
     general_kalman(ones((17, 1)), 1.0, 1.0)
+    fields = (ones(1), ones(1), ones(1), ones(1), ones(1))
+    general_inputs(
+        one,
+        fields,
+        ones(1),
+        ones(1),
+        ones((1, 2)),
+        one,
+        ones((5, 1)),
+        ones((1, 2, 2)),
+        ones((1, 3)),
+    )
+    fused_links.load()
     _LOADED.append(True)

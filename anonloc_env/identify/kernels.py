@@ -21,20 +21,17 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
-from anonloc_env.identify import fused
-from anonloc_env.identify.arrays import group_sizes, group_starts, is_shared, near_best, take_field
-from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates
+from anonloc_env.identify import fused, fused_calls
+from anonloc_env.identify.arrays import group_sizes, group_starts, near_best, take_field
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, Gate, worst_variance
 from anonloc_env.identify.likelihood import (
     Child,
-    Geometry,
     Pairs,
     Scoring,
-    kalman,
     orientation,
     pruned,
 )
-from anonloc_env.identify.model import LOG_2PI, SensorModel, push_covariance
+from anonloc_env.identify.model import LOG_2PI
 from anonloc_env.identify.others import Links
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import expand_ranges
@@ -374,178 +371,11 @@ def known_children(
         p_ts=p_ts,
         p_ss=p_ss,
     )
-    general = _needs_general(p_ts, p_ss, interval, slot)
+    general = fused_calls.needs_general(p_ts, p_ss, interval, slot)
     if general.any():
         g = np.flatnonzero(general)
-        _general_kalman(child, g, tracks.take(parent[g]), z[g], interval, pix_var, model)
+        fused_calls.general_step(child, g, tracks, parent[g], z[g], interval, pix_var, model)
     if model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = tracks.logw[parent] + scoring.log_pd + child.loglik - log_bg
     return pruned(slot, cand, z, logw, child, pix_var)
-
-
-def _needs_general(
-    p_ts: np.ndarray, p_ss: np.ndarray, interval: Interval, slot: np.ndarray
-) -> np.ndarray:
-    """Candidates whose parent's scale is estimated (not known exactly) or whose robot was
-    pushed: :func:`known_children` hands them to the general Kalman step."""
-    if is_shared(p_ss) and is_shared(p_ts) and p_ss[0] == 0.0 and p_ts[0] == 0.0:
-        general = np.zeros(len(slot), dtype=bool)  # the scale known, as it is in a first leg
-    else:
-        general = (p_ss != 0.0) | (p_ts != 0.0)
-    if interval.push is not None:
-        general |= interval.push[slot] > 0
-    return general
-
-
-def _general_kalman(
-    child: Child,
-    g: np.ndarray,
-    sub: Tracks,
-    z: np.ndarray,
-    interval: Interval,
-    pix_var: float,
-    model: SensorModel,
-) -> None:
-    """Candidates ``g`` of ``child`` (parent tracks ``sub``, rows ``z``) scored by the general
-    :func:`~anonloc_env.identify.likelihood.kalman` instead; by
-    :func:`anonloc_env.identify.fused.general_kalman` where the kernels are on (the same
-    floats; ``exp`` and ``log`` taken by numpy around it)."""
-    if compiled.mode() is None:
-        out = Child.start(sub)
-        kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
-        new = (out.loglik, out.theta, out.p_tt, out.log_s, out.p_ts, out.p_ss)
-    else:
-        count, slot = len(sub), sub.slot
-        log_s = np.broadcast_to(sub.log_s, (count,))
-        d = interval.d[slot]
-        var_d, var_dphi = interval.variances(model.odometry_noise)
-        cov = push_covariance(interval, model)[slot]
-        delta = z[:, :2] - sub.pos
-        x = np.empty((17, count))
-        x[0], x[1], x[2], x[3], x[4] = sub.theta, log_s, sub.p_tt, sub.p_ts, sub.p_ss
-        x[5] = np.exp(log_s)
-        x[6], x[7], x[8], x[9] = d[:, 0], d[:, 1], delta[:, 0], delta[:, 1]
-        x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
-        x[13], x[14], x[15], x[16] = sub.pos_var, var_d[slot], interval.dphi[slot], var_dphi[slot]
-        step = fused.general_kalman(x, pix_var, model.scale_spread)
-        loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
-        tail = tail_candidates(interval, slot, model.crowd_push_tail)
-        if len(tail):  # pressed robots: the narrow pushes mixed in (contact.mix_pushes)
-            assert isinstance(interval, PressedInterval)
-            assert interval.narrow is not None
-            cov = push_covariance(interval.narrow, model)[slot[tail]]
-            x = x[:, tail]
-            x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
-            narrow = fused.general_kalman(x, pix_var, model.scale_spread)
-            sub_ll = -LOG_2PI - 0.5 * np.log(narrow[0]) - 0.5 * narrow[1]
-            loglik[tail] = mix_pushes(loglik[tail], sub_ll, model.crowd_push_tail)
-        new = (loglik, step[2], step[3], step[4], step[5], step[6])
-    child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
-    # Own copies: the parents' fields may be shared.
-    child.log_s, child.p_ts, child.p_ss = (
-        np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
-    )
-    child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
-
-
-def known_compiled(
-    sub: Tracks,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    cand: np.ndarray,
-    pairs: Pairs,
-    links: Links | None,
-    scoring: Scoring,
-) -> Tracks:
-    """The children of tracks ``sub`` that all know their heading and scale and carry no motion,
-    track ``h``'s candidate rows ``cand[lo[h]:hi[h]]``, by the compiled kernels (the same
-    floats): the gate of ``Gate.of`` and ``Gate.passes``, then :func:`known_children` (which
-    equals :func:`~anonloc_env.identify.likelihood.children` for such tracks), the general Kalman
-    step for the candidates it hands there, the detected heading and the prune, in one pass
-    over the candidates instead of blocks of numpy calls. ``Builder.anchored`` and
-    ``Builder.from_missed`` take it."""
-    rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
-    model = scoring.model
-    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
-    var_d, var_dphi = interval.variances(model.odometry_noise)
-    n = len(interval.d)
-    worst = worst_variance(np.arange(n), interval, model, pix_var)
-    index, out = fused.known_children(
-        np.stack([sub.slot, lo, hi]).astype(np.int64),
-        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
-        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
-        np.ascontiguousarray(s, dtype=np.float64),
-        np.stack([interval.dphi, worst, var_d, var_dphi]),
-        np.ascontiguousarray(interval.d, dtype=np.float64),
-        cand.astype(np.int64),
-        np.ascontiguousarray(rows, dtype=np.float64),
-        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
-        bool(model.orientation),
-    )
-    return _finish_compiled(sub, index[0], cand[index[1]], pairs, links, scoring, out)
-
-
-def _finish_compiled(
-    sub: Tracks,
-    parent: np.ndarray,
-    cand: np.ndarray,
-    pairs: Pairs,
-    links: Links | None,
-    scoring: Scoring,
-    out: np.ndarray,
-) -> Tracks:
-    """What :func:`known_compiled` does after the gate and the Kalman step of
-    :func:`anonloc_env.identify.fused.known_children` (track ``parent[k]`` at row ``cand[k]``,
-    ``out``): the log, the general Kalman step where :func:`known_children` takes it, then the
-    detected heading, the weights and the prune
-    (:func:`anonloc_env.identify.fused.finish_known`)."""
-    rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
-    model = scoring.model
-    count = len(parent)
-    slot = sub.slot[parent]
-    child = Child(
-        loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
-        theta=out[2],
-        p_tt=out[3],
-        log_s=take_field(sub.log_s, parent, count),
-        p_ts=take_field(sub.p_ts, parent, count),
-        p_ss=take_field(sub.p_ss, parent, count),
-    )
-    general = _needs_general(child.p_ts, child.p_ss, interval, slot)
-    if general.any():
-        g = np.flatnonzero(general)
-        _general_kalman(child, g, sub.take(parent[g]), rows[cand[g]], interval, pix_var, model)
-    bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
-    if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
-        orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
-        logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
-        return pruned(slot, cand, rows[cand], logw, child, pix_var)
-    log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
-    theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
-    keep, logw = fused.finish_known(
-        slot.astype(np.int64),
-        np.ascontiguousarray(rows[cand, 2]),
-        child.loglik,
-        theta,
-        p_tt,
-        log_var,
-        np.ascontiguousarray(sub.logw[parent]),
-        bg,
-        np.array([scoring.theta_var, math.log(2 * math.pi), scoring.log_pd, PRUNE_NATS]),
-        bool(model.orientation),
-    )
-    kept = len(keep)
-    c = cand[keep]
-    return Tracks.fresh(
-        slot[keep],
-        c,
-        rows[c, :2],
-        logw[keep],
-        pos_var=pix_var,
-        theta=wrap_angle(theta[keep]),
-        p_tt=p_tt[keep],
-        log_s=take_field(child.log_s, keep, kept),
-        p_ts=take_field(child.p_ts, keep, kept),
-        p_ss=take_field(child.p_ss, keep, kept),
-    )

@@ -18,6 +18,7 @@ from anonloc_env.identify.camera_pose import (
     registration_prior,
 )
 from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, break_length
+from anonloc_env.identify.footprint import View, camera_view
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -86,6 +87,9 @@ class SensorModel:
             (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
             the set point's frame first, and ``from_config`` adds the registration's error to
             ``pixel_noise``. ``None``: a fixed (or landmark-registered) camera.
+        view: a moving camera's view (:mod:`anonloc_env.identify.footprint`): each picture's
+            footprint then enters the count law, and robots predicted out of view are expected
+            to be missed. ``None``: a fixed camera, every robot in view.
     """
 
     scale: float | None
@@ -108,6 +112,7 @@ class SensorModel:
     crowd_push_tail: float = 1.0
     contact_break: float = 0.0
     registration: RegistrationPrior | None = None
+    view: View | None = None
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -166,6 +171,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     cam = _camera_section(config)
     clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
     area = config.arena_size[0] * config.arena_size[1]
+    registration = registration_prior(config, cam.pixel_noise)
     return SensorModel(
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
@@ -188,7 +194,8 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         crowd_push_share=CROWD_PUSH_SHARE if clean else None,
         crowd_push_tail=CROWD_PUSH_TAIL if clean else 1.0,
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
-        registration=registration_prior(config, cam.pixel_noise),
+        registration=registration,
+        view=None if registration is None else camera_view(config, registration.absolute[2]),
     )
 
 
@@ -229,7 +236,7 @@ P_DETECT_CEILING = 1.0 - 1e-6
 FALSE_POSITIVE_FLOOR = 1e-3
 
 
-def log_background(model: SensorModel, n_rows: int) -> float:
+def log_background(model: SensorModel, n_rows: int, share: float = 1.0) -> float:
     """``log lambda``: the density (per image unit squared) that a picture of ``n_rows`` rows
     puts on the other detections when it is weighed against "this robot was missed".
 
@@ -240,13 +247,19 @@ def log_background(model: SensorModel, n_rows: int) -> float:
     seen with probability ``P_D`` each plus Poisson false positives: when every robot is in the
     picture, the count itself says so. Without it, ``B`` is Poisson with mean ``n - P_D``
     (its plug-in estimate from the row count), and ``lambda = (n - P_D) / A``.
+
+    ``share``: the share of the arena in view (a moving camera's footprint, see
+    :mod:`anonloc_env.identify.footprint`): each robot is then seen with ``P_D share``.
     """
     area = model.image_area
+    p_seen = model.p_detect if share == 1.0 else model.p_detect * share
     if model.n_robots is None:
-        return math.log(max(n_rows - model.p_detect, 0.5) / area)
+        return math.log(max(n_rows - p_seen, 0.5) / area)
     if n_rows == 0:
         return math.log(0.5 / area)  # unused: no row to weigh
     p = min(model.p_detect, P_DETECT_CEILING)
+    if share != 1.0:
+        p *= share
     rate = max(model.false_positives, FALSE_POSITIVE_FLOOR)
     ratio = _log_count(n_rows, model.n_robots - 1, p, rate) - _log_count(
         n_rows - 1, model.n_robots - 1, p, rate

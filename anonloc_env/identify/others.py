@@ -60,6 +60,7 @@ wrong. There the clutter model is already at the linked bound, so nothing is los
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -67,6 +68,7 @@ from functools import cached_property
 import numpy as np
 
 from anonloc_env import compiled
+from anonloc_env.identify import fused_links
 from anonloc_env.identify.model import SensorModel
 from anonloc_env.neighbours import pairs_within
 
@@ -175,8 +177,11 @@ def links_between(
         return empty
     w_move, w_end, w_new = _association_weights(model)
     i, j, w_pair = _edges(model, prev, rows, pix_var, before)
+    if compiled.mode() is not None:  # the same floats, two calls
+        return _links_compiled(n_a, i, j, w_move * w_pair, (w_end, w_new, log_bg), prev, rows)
     graph = _Graph.of(n_a, n_b, i, j, w_move * w_pair)
-    exact = _lone_and_big_weights(graph, w_end, w_new, log_bg, ends, starts)
+    sizes = (graph.comp_a, graph.comp_b, graph.size_a, graph.size_b)
+    exact = _lone_and_big_weights(sizes, w_end, w_new, log_bg, ends, starts)
     if not exact.any():
         return empty
     keys, extra, moved = [], [], []
@@ -260,20 +265,68 @@ class _Graph:
 
 
 def _lone_and_big_weights(
-    graph: _Graph, w_end: float, w_new: float, log_bg: float, ends: np.ndarray, starts: np.ndarray
+    sizes: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    w_end: float,
+    w_new: float,
+    log_bg: float,
+    ends: np.ndarray,
+    starts: np.ndarray,
 ) -> np.ndarray:
     """Fill ``ends`` and ``starts`` (in place) for every row and column, exact for those alone
-    and the clutter model's in components too big; return which labels are summed exactly."""
+    and the clutter model's in components too big; return which labels are summed exactly.
+    ``sizes``: the graph's ``comp_a``, ``comp_b``, ``size_a`` and ``size_b`` (:class:`_Graph`)."""
+    comp_a, comp_b, size_a, size_b = sizes
     # A row alone: Z = w_end, Z(-a) = 1. A column alone: Z(-b) / Z = 1 / w_new.
     ends[:] = -math.log(w_end)
     starts[:] = -math.log(w_new)
-    size_a, size_b = graph.size_a, graph.size_b
     joined = (size_a > 0) & (size_b > 0)
     big = joined & ((size_a > MAX_COMPONENT) | (size_b > MAX_COMPONENT))
     # A component too big to sum exactly keeps the clutter model for its rows.
-    ends[big[graph.comp_a]] = 0.0
-    starts[big[graph.comp_b]] = -log_bg
+    ends[big[comp_a]] = 0.0
+    starts[big[comp_b]] = -log_bg
     return joined & ~big
+
+
+def _links_compiled(
+    n_a: int,
+    i: np.ndarray,
+    j: np.ndarray,
+    w: np.ndarray,
+    weights: tuple[float, float, float],
+    prev: np.ndarray,
+    rows: np.ndarray,
+) -> Links:
+    """:func:`links_between` from the graph's edges ``i - j`` of weight ``w`` on, by the
+    kernels of :mod:`~anonloc_env.identify.fused_links` (the same floats); ``weights``: ``W_end``,
+    ``W_new`` and ``log lambda``."""
+    w_end, w_new, log_bg = weights
+    n_b = len(rows)
+    ends, starts = np.zeros(n_a), np.zeros(n_b)
+    out = fused_links.association(n_a, n_b, i, j, w, w_end, _powers(w_new), MAX_COMPONENT)
+    label, size_a, size_b, comps, ra, cb, w_flat, sums = out
+    sizes = (label[:n_a], label[n_a:], size_a, size_b)
+    _lone_and_big_weights(sizes, w_end, w_new, log_bg, ends, starts)
+    if comps.shape[1] == 1:  # no component summed exactly
+        return Links(ends, starts, np.zeros(0, np.int64), np.zeros(0))
+    logs = np.log(sums)
+    key, extra, moves, p = fused_links.leave_out_links(
+        comps, ra, cb, w_flat, sums, logs, n_b, ends, starts, MOVE_FLOOR
+    )
+    order = np.argsort(key, kind="stable")
+    frm, to = moves
+    moved = rows[to, :2] - prev[frm, :2]
+    return Links(ends, starts, key[order], extra[order], moved_row=to, moved=moved, moved_p=p)
+
+
+@functools.lru_cache(maxsize=64)
+def _powers(w_new: float) -> np.ndarray:
+    """``(MAX_COMPONENT + 1, MAX_COMPONENT + 1)``: row ``k`` starts with ``w_new **
+    np.arange(k + 1)``, the table :func:`_leave_out_sums` takes for ``k`` columns."""
+    table = np.zeros((MAX_COMPONENT + 1, MAX_COMPONENT + 1))
+    for k in range(MAX_COMPONENT + 1):
+        table[k, : k + 1] = w_new ** np.arange(k + 1)
+    table.flags.writeable = False
+    return table
 
 
 def _leave_out_weights(

@@ -1,0 +1,254 @@
+"""How the identifier calls its compiled children (:mod:`anonloc_env.identify.fused`): the
+arrays each kernel takes, built from the tracks, the pair of pictures and the model, and the
+tracks made of what it returns; which robots' tracks may take them
+(:func:`known_robots`); the general Kalman step that both the compiled and the numpy children
+hand their pushed robots and estimated scales to (:func:`general_step`).
+
+The numpy forms these equal are :func:`anonloc_env.identify.kernels.known_children` and
+:func:`anonloc_env.identify.likelihood.children`; ``tests/test_identify_fused.py`` runs both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from anonloc_env import compiled
+from anonloc_env.geometry import wrap_angle
+from anonloc_env.identify import fused
+from anonloc_env.identify.arrays import group_sizes, group_starts, is_shared, take_field
+from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates
+from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, worst_variance
+from anonloc_env.identify.likelihood import (
+    Child,
+    Geometry,
+    Pairs,
+    Scoring,
+    kalman,
+    orientation,
+    pruned,
+)
+from anonloc_env.identify.model import LOG_2PI, SensorModel, push_covariance
+from anonloc_env.identify.others import Links
+from anonloc_env.identify.tracks import Tracks
+from anonloc_env.odometry import Interval
+
+
+def needs_general(
+    p_ts: np.ndarray, p_ss: np.ndarray, interval: Interval, slot: np.ndarray
+) -> np.ndarray:
+    """Candidates whose parent's scale is estimated (not known exactly) or whose robot was
+    pushed: :func:`~anonloc_env.identify.kernels.known_children` and :func:`known_compiled`
+    hand them to the general Kalman step."""
+    if is_shared(p_ss) and is_shared(p_ts) and p_ss[0] == 0.0 and p_ts[0] == 0.0:
+        general = np.zeros(len(slot), dtype=bool)  # the scale known, as it is in a first leg
+    else:
+        general = (p_ss != 0.0) | (p_ts != 0.0)
+    if interval.push is not None:
+        general |= interval.push[slot] > 0
+    return general
+
+
+def general_step(
+    child: Child,
+    g: np.ndarray,
+    tracks: Tracks,
+    parents: np.ndarray,
+    z: np.ndarray,
+    interval: Interval,
+    pix_var: float,
+    model: SensorModel,
+) -> None:
+    """Candidates ``g`` of ``child`` (parent tracks ``parents`` of ``tracks``, rows ``z``)
+    scored by the general :func:`~anonloc_env.identify.likelihood.kalman` instead; by
+    :func:`anonloc_env.identify.fused.general_kalman` where the kernels are on (the same
+    floats; ``exp`` and ``log`` taken by numpy around it)."""
+    if compiled.mode() is None:
+        sub = tracks.take(parents)
+        out = Child.start(sub)
+        kalman(np.ones(len(g), bool), Geometry(sub, z, interval, model, pix_var), sub, out)
+        new = (out.loglik, out.theta, out.p_tt, out.log_s, out.p_ts, out.p_ss)
+    else:
+        var_d, var_dphi = interval.variances(model.odometry_noise)
+        robots = np.stack([interval.d[:, 0], interval.d[:, 1], var_d, interval.dphi, var_dphi])
+        log_s = _one(tracks.log_s) if is_shared(tracks.log_s) else tracks.log_s[parents]
+        fields = tuple(_one(f) for f in (tracks.theta, tracks.p_tt, tracks.p_ts, tracks.p_ss))
+        x = fused.general_inputs(
+            parents.astype(np.int64),
+            (*fields, _one(tracks.pos_var)),
+            log_s,
+            np.exp(log_s),
+            tracks.pos,
+            tracks.slot.astype(np.int64),
+            robots,
+            np.ascontiguousarray(push_covariance(interval, model), dtype=np.float64),
+            z,
+        )
+        step = fused.general_kalman(x, pix_var, model.scale_spread)
+        loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
+        slot = tracks.slot[parents]
+        tail = tail_candidates(interval, slot, model.crowd_push_tail)
+        if len(tail):  # pressed robots: the narrow pushes mixed in (contact.mix_pushes)
+            assert isinstance(interval, PressedInterval)
+            assert interval.narrow is not None
+            cov = push_covariance(interval.narrow, model)[slot[tail]]
+            x = x[:, tail]
+            x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+            narrow = fused.general_kalman(x, pix_var, model.scale_spread)
+            narrow_ll = -LOG_2PI - 0.5 * np.log(narrow[0]) - 0.5 * narrow[1]
+            loglik[tail] = mix_pushes(loglik[tail], narrow_ll, model.crowd_push_tail)
+        new = (loglik, step[2], step[3], step[4], step[5], step[6])
+    child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
+    # Own copies: the parents' fields may be shared.
+    child.log_s, child.p_ts, child.p_ss = (
+        np.array(f) for f in (child.log_s, child.p_ts, child.p_ss)
+    )
+    child.log_s[g], child.p_ts[g], child.p_ss[g] = new[3:]
+
+
+def _one(field: np.ndarray) -> np.ndarray:
+    """A track field as a kernel takes it: ``(1,)`` where shared, else the field itself."""
+    return np.array(field[:1]) if is_shared(field) else field
+
+
+def known_robots(tracks: Tracks, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(known, rest)``: tracks ``index`` (increasing, grouped by robot) split by robot into
+    those of the robots whose tracks ``index`` all know their heading and scale and carry no
+    motion (what :func:`known_compiled` takes) and the others (the general path), each in the
+    order of ``index``. A robot's children depend on its own tracks alone, so each robot gets
+    the same children whichever path its neighbours take."""
+    sub = tracks.select(index)
+    known = np.isfinite(sub.theta) & np.isfinite(sub.log_s)
+    if sub.turn.any() or sub.carry.any():
+        known &= (sub.turn == 0.0) & ~sub.carry.any(axis=1)
+    if known.all():
+        return index, index[:0]
+    starts = group_starts(sub.slot)
+    whole = np.repeat(np.minimum.reduceat(known, starts), group_sizes(sub.slot, starts))
+    return index[whole], index[~whole]
+
+
+def renumbered(
+    a: np.ndarray, b: np.ndarray, index: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Of pairs ``a[k] - b[k]`` (track ``a[k]`` of ``n``), those of tracks ``index``
+    (increasing), in order, ``a`` renumbered to its position in ``index``."""
+    place = np.full(n, -1, dtype=np.int64)
+    place[index] = np.arange(len(index))
+    mine = place[a]
+    keep = np.flatnonzero(mine >= 0)
+    return mine[keep], b[keep]
+
+
+def merge_by_robot(first: Tracks, second: Tracks) -> Tracks:
+    """The tracks of ``first`` and ``second`` (each grouped by robot, no robot in both) in one,
+    grouped by robot in order, each robot's tracks in their order."""
+    if not len(first) or not len(second):
+        return second if not len(first) else first
+    both = Tracks.concat([first, second])
+    return both.take(np.argsort(both.slot, kind="stable"))
+
+
+def known_compiled(
+    sub: Tracks,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    cand: np.ndarray,
+    pairs: Pairs,
+    links: Links | None,
+    scoring: Scoring,
+) -> Tracks:
+    """The children of tracks ``sub`` that all know their heading and scale and carry no motion,
+    track ``h``'s candidate rows ``cand[lo[h]:hi[h]]``, by the compiled kernels (the same
+    floats): the gate of ``Gate.of`` and ``Gate.passes``, then
+    :func:`~anonloc_env.identify.kernels.known_children` (which
+    equals :func:`~anonloc_env.identify.likelihood.children` for such tracks), the general Kalman
+    step for the candidates it hands there, the detected heading and the prune, in one pass
+    over the candidates instead of blocks of numpy calls. ``Builder.anchored`` and
+    ``Builder.from_missed`` take it."""
+    rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
+    model = scoring.model
+    s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
+    var_d, var_dphi = interval.variances(model.odometry_noise)
+    n = len(interval.d)
+    worst = worst_variance(np.arange(n), interval, model, pix_var)
+    index, out = fused.known_children(
+        np.stack([sub.slot, lo, hi]).astype(np.int64),
+        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
+        np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
+        np.ascontiguousarray(s, dtype=np.float64),
+        np.stack([interval.dphi, worst, var_d, var_dphi]),
+        np.ascontiguousarray(interval.d, dtype=np.float64),
+        cand.astype(np.int64),
+        np.ascontiguousarray(rows, dtype=np.float64),
+        np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
+        bool(model.orientation),
+    )
+    return _finish_compiled(sub, index[0], cand[index[1]], pairs, links, scoring, out)
+
+
+def _finish_compiled(
+    sub: Tracks,
+    parent: np.ndarray,
+    cand: np.ndarray,
+    pairs: Pairs,
+    links: Links | None,
+    scoring: Scoring,
+    out: np.ndarray,
+) -> Tracks:
+    """What :func:`known_compiled` does after the gate and the Kalman step of
+    :func:`anonloc_env.identify.fused.known_children` (track ``parent[k]`` at row ``cand[k]``,
+    ``out``): the log, the general Kalman step where
+    :func:`~anonloc_env.identify.kernels.known_children` takes it, then the
+    detected heading, the weights and the prune
+    (:func:`anonloc_env.identify.fused.finish_known`)."""
+    rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
+    model = scoring.model
+    count = len(parent)
+    slot = sub.slot[parent]
+    child = Child(
+        loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
+        theta=out[2],
+        p_tt=out[3],
+        log_s=take_field(sub.log_s, parent, count),
+        p_ts=take_field(sub.p_ts, parent, count),
+        p_ss=take_field(sub.p_ss, parent, count),
+    )
+    general = needs_general(child.p_ts, child.p_ss, interval, slot)
+    if general.any():
+        g = np.flatnonzero(general)
+        general_step(child, g, sub, parent[g], rows[cand[g]], interval, pix_var, model)
+    bg = np.array([log_bg]) if links is None else -links.detect(sub.row[parent], cand)
+    if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
+        orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
+        logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
+        return pruned(slot, cand, rows[cand], logw, child, pix_var)
+    log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
+    theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
+    keep, logw = fused.finish_known(
+        slot.astype(np.int64),
+        np.ascontiguousarray(rows[cand, 2]),
+        child.loglik,
+        theta,
+        p_tt,
+        log_var,
+        np.ascontiguousarray(sub.logw[parent]),
+        bg,
+        np.array([scoring.theta_var, math.log(2 * math.pi), scoring.log_pd, PRUNE_NATS]),
+        bool(model.orientation),
+    )
+    kept = len(keep)
+    c = cand[keep]
+    return Tracks.fresh(
+        slot[keep],
+        c,
+        rows[c, :2],
+        logw[keep],
+        pos_var=pix_var,
+        theta=wrap_angle(theta[keep]),
+        p_tt=p_tt[keep],
+        log_s=take_field(child.log_s, keep, kept),
+        p_ts=take_field(child.p_ts, keep, kept),
+        p_ss=take_field(child.p_ss, keep, kept),
+    )
