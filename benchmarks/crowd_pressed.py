@@ -9,8 +9,9 @@ Plays episodes of ``bayes`` with each excitation (as :mod:`benchmarks.crowds` do
   contact bound ``Interval.push``: its quantiles;
 * **variants**: replays each episode's pictures and motion through the identifier with the
   wide pushes alone (``crowd_push_tail=1``, the model before this round), with the model as it
-  is (pressed pushes mixed, :func:`anonloc_env.identify.contact.mix_pushes`), and without track
-  breaks (``contact_break=0``), and counts, per variant: the confident decisions and the wrong
+  is (pressed pushes mixed, :func:`anonloc_env.identify.contact.mix_pushes`), without track
+  breaks (``contact_break=0``), and with jammed robots mixed too (``crowd_jam`` unbounded), and
+  counts, per variant: the confident decisions and the wrong
   ones, the robots right and decided at one picture and not at the next (*lost*), how many of
   them were pressed, how many kept the right row on top (undecided, not wrong), and how many
   had a neighbour's row (a robot within 1.5 sizes) second; the share right and decided at
@@ -110,6 +111,7 @@ def main(argv: list[str] | None = None) -> None:
         "wide pushes alone (before)": dataclasses.replace(model, crowd_push_tail=1.0),
         "mixed (now)": model,
         "mixed, no breaks": dataclasses.replace(model, contact_break=0.0),
+        "mixed, jammed robots too": dataclasses.replace(model, crowd_jam=10**9),
     }
     for name in args.excitations:
         episodes = [play(env, name, seed) for seed in range(*args.seeds)]

@@ -146,6 +146,10 @@ def test_contact_model_fields_are_checked() -> None:
         dataclasses.replace(model, crowd_push_share=1.5)
     with pytest.raises(ValueError, match="contact_break"):
         dataclasses.replace(model, contact_break=-1.0)
+    with pytest.raises(ValueError, match="crowd_push_tail"):
+        dataclasses.replace(model, crowd_push_tail=0.0)
+    with pytest.raises(ValueError, match="crowd_jam"):
+        dataclasses.replace(model, crowd_jam=1)
 
 
 def test_tracks_break_sooner_in_denser_crowds() -> None:

@@ -22,7 +22,8 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   :attr:`~anonloc_env.identify.SensorModel.crowd_push_tail`, 0.1) with a bump's narrow ones
   (:func:`mix_pushes`): most slides are short, and with the wide pushes alone a neighbour pressed
   against the robot fitted almost as well as its own row, so decided robots went undecided
-  whenever they were pressed. A *jammed* robot, pushed more than :data:`JAM` intervals in a row,
+  whenever they were pressed. A *jammed* robot, pushed more than
+  :attr:`~anonloc_env.identify.SensorModel.crowd_jam` (:data:`JAM`) intervals in a row,
   keeps the wide pushes alone (robots jammed together for tens of intervals were taken for one
   another with the mixture).
 * Its track may have broken (a slide taken for a heading, a swap with a pressed neighbour):
@@ -87,20 +88,24 @@ class PressedInterval(Interval):
 
 
 def pressed_interval(
-    interval: Interval, run: np.ndarray, push_share: float, crowd_push_share: float
+    interval: Interval,
+    run: np.ndarray,
+    push_share: float,
+    crowd_push_share: float,
+    jam: int = JAM,
 ) -> Interval:
     """``interval`` with the pushes of the robots pressed (pushed ``run`` >= 2 intervals in a
     row, this one included) widened so that the model's share of their covariance is
     ``crowd_push_share`` instead of ``push_share`` (the same interval where none is pressed); a
     :class:`PressedInterval` that keeps ``interval`` as its ``narrow``, mixed in for the robots
-    pressed at most :data:`JAM` intervals in a row."""
+    pushed at most ``jam`` intervals in a row."""
     pressed = run >= 2
     if interval.push is None or interval.push_sum is None or not pressed.any():
         return interval
     factor = np.where(pressed, np.sqrt(crowd_push_share / push_share), 1.0)
     wide = {f.name: getattr(interval, f.name) for f in dataclasses.fields(interval)}
     wide.update(push=interval.push * factor, push_sum=interval.push_sum * factor[:, None])
-    return PressedInterval(**wide, mixed=pressed & (run <= JAM), narrow=interval)
+    return PressedInterval(**wide, mixed=pressed & (run <= jam), narrow=interval)
 
 
 def tail_candidates(interval: Interval, slot: np.ndarray, tail: float | None) -> np.ndarray:

@@ -164,7 +164,8 @@ class Identifier:
         push = np.where(pressed, interval.push, 0.0)
         brk = model.contact_break
         break_tracks(t.logw, t.slot, self.uniform, self.unanchored, log_rows, push, brk)
-        return pressed_interval(interval, run, model.push_share, model.crowd_push_share)
+        shares = (model.push_share, model.crowd_push_share)
+        return pressed_interval(interval, run, *shares, model.crowd_jam)
 
     def _extend(
         self,

@@ -17,7 +17,7 @@ from anonloc_env.identify.camera_pose import (
     registered_pixel_noise,
     registration_prior,
 )
-from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, break_length
+from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
 from anonloc_env.identify.footprint import View, camera_view
 from anonloc_env.odometry import Interval
 
@@ -77,6 +77,9 @@ class SensorModel:
             ``crowd_push_share`` alone). 1 (the default): ``crowd_push_share`` alone.
             ``from_config`` sets :data:`anonloc_env.identify.contact.CROWD_PUSH_TAIL` with
             ``crowd_push_share``.
+        crowd_jam: a robot pushed more than this many intervals in a row (>= 2) is jammed: its
+            likelihood keeps ``crowd_push_share`` alone. The default:
+            :data:`anonloc_env.identify.contact.JAM`.
         contact_break: the contact bound (m, summed over an interval) over which a
             pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
@@ -110,6 +113,7 @@ class SensorModel:
     others_turn: float = 0.0
     crowd_push_share: float | None = None
     crowd_push_tail: float = 1.0
+    crowd_jam: int = JAM
     contact_break: float = 0.0
     registration: RegistrationPrior | None = None
     view: View | None = None
@@ -140,6 +144,8 @@ class SensorModel:
         if self.crowd_push_share is not None:
             check_number("crowd_push_share", self.crowd_push_share, 0.0, 1.0, low_open=True)
         check_number("crowd_push_tail", self.crowd_push_tail, 0.0, 1.0, low_open=True)
+        if not (isinstance(self.crowd_jam, int | np.integer) and self.crowd_jam >= 2):
+            raise ValueError(f"crowd_jam must be an integer >= 2, got {self.crowd_jam!r}")
         check_number("contact_break", self.contact_break, 0.0)
 
     @classmethod
