@@ -176,11 +176,11 @@ class ProgressEvaluation(BaseCallback):
     def evaluate(self) -> float:
         """Play the current policy; log and show the figures; returns pictures to 99 %."""
         from agents.evaluation import censored_pictures, play
-        from agents.policy import LearnedExcitation
+        from agents.policy import as_saved
 
         config, condition, budget = self.scenario
         results = play(
-            config, condition, budget, lambda: LearnedExcitation(self.model), self.seeds,
+            config, condition, budget, lambda: as_saved(self.model), self.seeds,
             self.pictures,
         )  # fmt: skip
         pictures = censored_pictures(results, self.pictures)

@@ -27,7 +27,7 @@ from gymnasium import spaces
 from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
 from agents.candidates import CandidateChooser
 from agents.saved_agent import check_members, load_failure, run_settings
-from agents.spec import check_saved, on_duty, saved_spec
+from agents.spec import AgentSpec, check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.excitations.rest import RestWhenSure
@@ -168,10 +168,20 @@ def load_agent(path: str | Path, condition: str | None = None, budget: float = 0
     if spec is not None:  # the agent's own record, before its run folder's
         train = {"condition": spec.condition, "budget": spec.budget}
     condition = condition or str(train.get("condition", "free"))
+    return on_duty(condition, as_saved(model), float(train.get("budget", budget)))
+
+
+def as_saved(model: Any) -> Excitation:
+    """The policy of ``model`` (an SB3 model, loaded or in training) as its spec runs it: at
+    rest once sure when the spec in its ``policy_kwargs`` sets ``rest``
+    (``baselines.excitations.rest.RestWhenSure``), before any swarm duty. Every evaluation of
+    a model goes through here, so none forgets the rest it was trained with."""
     own: Excitation = LearnedExcitation(model)
-    if spec is not None and spec.rest is not None:  # it rests as it was trained to
-        own = RestWhenSure(own, spec.rest)
-    return on_duty(condition, own, float(train.get("budget", budget)))
+    data = (getattr(model, "policy_kwargs", None) or {}).get("spec")
+    rest = AgentSpec.from_json(data).rest if data is not None else None
+    if rest is not None:
+        own = RestWhenSure(own, rest)
+    return own
 
 
 def team(

@@ -42,7 +42,7 @@ from typing import Any
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
 from baselines.excitations.code import CentralizedCode
-from baselines.excitations.rest import RestWhenSure
+from baselines.excitations.rest import SURE, RestWhenSure
 from baselines.limit import picture_limit
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
@@ -86,28 +86,32 @@ def score(results: list[EpisodeResult], pictures: int) -> dict[str, Any]:
     }
 
 
-def makers(agent: str, excitations: Sequence[str]) -> dict[str, Callable[[], Excitation]]:
-    """How to build each named excitation (the agent's model is loaded once). A name ending in
-    ``-rest`` that the registry does not know (``agent-rest``, ``greedy-rest``) is the named
-    one inside :class:`baselines.excitations.rest.RestWhenSure`."""
+def makers(
+    agent: str, excitations: Sequence[str], sure: float = SURE
+) -> dict[str, Callable[[], Excitation]]:
+    """How to build each named excitation (the agent's model is loaded once, and runs as its
+    spec says: at rest once sure if it was searched or trained so). A name ending in ``-rest``
+    that the registry does not know (``agent-rest``, ``greedy-rest``), or any ``-rest`` name
+    when ``sure`` is not the default, is the named one inside
+    :class:`baselines.excitations.rest.RestWhenSure` at ``sure``."""
     out: dict[str, Callable[[], Excitation]] = {
         k: EXCITATIONS[k] for k in excitations if k in EXCITATIONS
     }
     out[REFERENCE] = CentralizedCode
     if "agent" in excitations or "agent-rest" in excitations:
-        from agents.policy import LearnedExcitation, load_model
+        from agents.policy import as_saved, load_model
 
         model = load_model(agent)
-        out["agent"] = lambda: LearnedExcitation(model)
+        out["agent"] = lambda: as_saved(model)
     for name in excitations:
-        inner = name.removesuffix("-rest")
-        if name not in out and inner in out:
-            out[name] = partial(_at_rest, out[inner])
+        inner = out.get(name.removesuffix("-rest")) or EXCITATIONS.get(name.removesuffix("-rest"))
+        if name.endswith("-rest") and inner is not None and (name not in out or sure != SURE):
+            out[name] = partial(_at_rest, inner, sure)
     return out
 
 
-def _at_rest(make: Callable[[], Excitation]) -> Excitation:
-    return RestWhenSure(make())
+def _at_rest(make: Callable[[], Excitation], sure: float) -> Excitation:
+    return RestWhenSure(make(), sure)
 
 
 def median_text(row: dict[str, Any]) -> str:
@@ -146,11 +150,12 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None, help="write the rows here")
     parser.add_argument("--scale", type=float, default=1.0, help="times the default episodes")
     parser.add_argument("--report", type=Path, nargs="+", default=None, help="rows to compare")
+    parser.add_argument("--rest", type=float, default=SURE, help="belief at which -rest rests")
     args = parser.parse_args()
     if args.report:
         print_ratios([row for path in args.report for row in json.loads(path.read_text())])
         return
-    built = makers(args.agent, args.excitations)
+    built = makers(args.agent, args.excitations, args.rest)
     conditions = evaluation_conditions()
     names = args.conditions or list(conditions)
     conditions |= crowded_conditions()  # run when named

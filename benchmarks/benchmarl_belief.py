@@ -26,7 +26,7 @@ from benchmarl.experiment import Experiment
 
 from agents.benchmarl import AnonLocTask, BenchmarlExcitation, experiment, settings
 from agents.evaluation import play
-from agents.policy import LearnedExcitation, load_model
+from agents.policy import as_saved, load_model
 from baselines.excitations import Excitation
 from baselines.registry import EXCITATIONS
 from benchmarks.agent_conditions import evaluation_conditions
@@ -93,7 +93,7 @@ def main() -> None:
     model = load_model("bundled")
     makers: dict[str, Callable[[], Excitation]] = {
         "mappo (BenchMARL)": lambda: BenchmarlExcitation(run),
-        "agent (bundled)": lambda: LearnedExcitation(model),
+        "agent (bundled)": lambda: as_saved(model),
         "uniform": EXCITATIONS["uniform"],
     }
     config, condition, budget = evaluation_conditions(args.pictures)[CONDITION]

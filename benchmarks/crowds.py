@@ -441,10 +441,10 @@ def _agent(path: str | None) -> dict[str, Callable[[], Excitation]]:
     """``{"agent": ...}`` for a saved agent (the ``rl`` extra), or nothing."""
     if not path:
         return {}
-    from agents.policy import LearnedExcitation, load_model
+    from agents.policy import as_saved, load_model
 
     model = load_model(path)
-    return {"agent": lambda: LearnedExcitation(model)}
+    return {"agent": lambda: as_saved(model)}
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -111,11 +111,11 @@ def main() -> None:
     names = list(args.excitations)
     extra: dict[str, Callable[[int], Excitation]] = {}
     if args.agent:
-        from agents.policy import LearnedExcitation, load_model
+        from agents.policy import as_saved, load_model
 
         model = load_model(args.agent)
         names[:0] = ["agent"]
-        extra["agent"] = lambda seed: LearnedExcitation(model)
+        extra["agent"] = lambda seed: as_saved(model)
     print(
         "| N | condition | excitation | identified | pictures to 99 % | energy per robot (m) "
         "| pictures, all episodes | Kaplan-Meier median | s |"

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from agents.evaluation import validate_against_uniform
-from agents.policy import LearnedExcitation, load_model
+from agents.policy import as_saved, load_model
 from agents.train import TrainConfig, train
 from baselines.statistics import Interval95
 
@@ -77,9 +77,7 @@ def validate(path: Path, episodes: int = VALIDATION_EPISODES) -> dict[str, tuple
     duty: per condition, the paired ratios of censored means (pictures, energy), with 95 %
     bootstrap intervals (:func:`agents.evaluation.validate_against_uniform`)."""
     model = load_model(path)
-    validations = validate_against_uniform(
-        lambda: LearnedExcitation(model), episodes, VALIDATION_PICTURES
-    )
+    validations = validate_against_uniform(lambda: as_saved(model), episodes, VALIDATION_PICTURES)
     return {condition: (v.pictures, v.energy) for condition, v in validations.items()}
 
 

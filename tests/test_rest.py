@@ -110,3 +110,19 @@ def test_resting_once_sure_saves_energy_at_about_the_pictures_of_uniform() -> No
     )
     assert rest[:, 1].mean() < 0.9 * chance[:, 1].mean(), (rest.mean(0), chance.mean(0))
     assert rest[:, 0].mean() <= 1.2 * chance[:, 0].mean(), (rest.mean(0), chance.mean(0))
+
+
+def test_agent_eval_rests_at_the_belief_asked() -> None:
+    """``benchmarks/agent_eval.py --rest``: every ``-rest`` excitation, registered
+    (``uniform-rest``) or composed (``greedy-rest``), rests at the belief given; by default at
+    :data:`SURE`."""
+    from benchmarks.agent_eval import makers
+
+    asked = makers("bundled", ["uniform-rest", "greedy-rest"], 0.9999)
+    default = makers("bundled", ["uniform-rest", "greedy-rest"])
+    for name in ("uniform-rest", "greedy-rest"):
+        made, plain = asked[name](), default[name]()
+        assert isinstance(made, RestWhenSure)
+        assert isinstance(plain, RestWhenSure)
+        assert (made.sure, plain.sure) == (0.9999, SURE)
+        assert type(made.inner) is type(plain.inner)

@@ -132,10 +132,11 @@ class Footprint:
     def near(self, centre: np.ndarray, reach: np.ndarray | float) -> np.ndarray:
         """Indices of the points ``centre`` ``(H, 2)`` within ``reach`` of an edge that cuts
         the arena, or beyond it (the others are in view for sure)."""
-        if not len(self.edges):
-            return np.zeros(0, np.int64)
-        depth = self.edges[None, :] - centre @ self.normals.T
-        return np.flatnonzero(depth.min(axis=1) < reach)
+        close = np.zeros(len(centre), bool)
+        u, v = centre[:, 0], centre[:, 1]
+        for (nu, nv), edge in zip(self.normals.tolist(), self.edges.tolist(), strict=True):
+            close |= edge - (nu * u + nv * v) < reach  # one edge at a time: no (H, E) table
+        return np.flatnonzero(close)
 
     def p_in(self, centre: np.ndarray, var: np.ndarray) -> np.ndarray:
         """``(H,)`` probability that a robot whose coordinates are Gaussian about ``centre``
