@@ -199,7 +199,7 @@ def cause(played: Played, k: int, robot: int, taken: int, size: float) -> str:
         if near < 1.5 * size:
             return "swap"
     legs = list(range(max(1, k - 2), k + 1))
-    pushed = [_pushed(result.intervals[q - 1], robot) for q in legs]
+    pushed = [was_pushed(result.intervals[q - 1], robot) for q in legs]
     moved = [np.hypot(*(poses[q][robot, :2] - poses[q - 1][robot, :2])) for q in legs]
     if len(legs) == 3 and all(pushed) and max(moved) < 0.5 * size:
         return "jam"
@@ -210,7 +210,8 @@ def cause(played: Played, k: int, robot: int, taken: int, size: float) -> str:
     return "other"
 
 
-def _pushed(interval: Interval, robot: int) -> bool:
+def was_pushed(interval: Interval, robot: int) -> bool:
+    """Whether a contact pushed ``robot`` in ``interval``."""
     return interval.push is not None and bool(interval.push[robot] > 0.0)
 
 
@@ -228,8 +229,8 @@ def losses(result: EpisodeResult) -> dict[str, int]:
     for k in range(1, min(pictures, len(result.intervals) + 1)):
         for robot in np.flatnonzero(right[k - 1] & ~right[k]):
             out["wrong" if decided[k, robot] else "undecided"] += 1
-            before = k >= 2 and _pushed(result.intervals[k - 2], robot)
-            out["pressed"] += int(before and _pushed(result.intervals[k - 1], robot))
+            before = k >= 2 and was_pushed(result.intervals[k - 2], robot)
+            out["pressed"] += int(before and was_pushed(result.intervals[k - 1], robot))
     return out
 
 

@@ -79,7 +79,7 @@ class Identifier:
         self._shares: tuple[np.ndarray, ...] | None = None
         self._missing: np.ndarray | None = None
         self.pictures = 0
-        self._pushed_before = np.zeros(self.n, bool)  # robots pushed in the latest interval
+        self._pushed_run = np.zeros(self.n, np.int64)  # intervals in a row each robot was pushed
         self._view: OutOfView | None = None  # the newest picture's footprint (a moving camera)
         if self.registration is not None:
             self.registration.reset()
@@ -150,8 +150,8 @@ class Identifier:
         before) slide consistently, and their tracks may break (see
         :mod:`anonloc_env.identify.contact`)."""
         pushed = np.zeros(self.n, bool) if interval.push is None else interval.push > 0
-        pressed = pushed & self._pushed_before
-        self._pushed_before = pushed
+        self._pushed_run = run = np.where(pushed, self._pushed_run + 1, 0)
+        pressed = run >= 2
         model = self.model
         if model.crowd_push_share is None or not pressed.any():
             return interval
@@ -164,7 +164,8 @@ class Identifier:
         push = np.where(pressed, interval.push, 0.0)
         brk = model.contact_break
         break_tracks(t.logw, t.slot, self.uniform, self.unanchored, log_rows, push, brk)
-        return pressed_interval(interval, pressed, model.push_share, model.crowd_push_share)
+        shares = (model.push_share, model.crowd_push_share)
+        return pressed_interval(interval, run, *shares, model.crowd_jam)
 
     def _extend(
         self,

@@ -18,6 +18,7 @@ from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import fused
 from anonloc_env.identify.arrays import group_sizes, group_starts, is_shared, take_field
+from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, worst_variance
 from anonloc_env.identify.likelihood import (
     Child,
@@ -86,6 +87,17 @@ def general_step(
         )
         step = fused.general_kalman(x, pix_var, model.scale_spread)
         loglik = -LOG_2PI - 0.5 * np.log(step[0]) - 0.5 * step[1]
+        slot = tracks.slot[parents]
+        tail = tail_candidates(interval, slot, model.crowd_push_tail)
+        if len(tail):  # pressed robots: the narrow pushes mixed in (contact.mix_pushes)
+            assert isinstance(interval, PressedInterval)
+            assert interval.narrow is not None
+            cov = push_covariance(interval.narrow, model)[slot[tail]]
+            x = x[:, tail]
+            x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+            narrow = fused.general_kalman(x, pix_var, model.scale_spread)
+            narrow_ll = -LOG_2PI - 0.5 * np.log(narrow[0]) - 0.5 * narrow[1]
+            loglik[tail] = mix_pushes(loglik[tail], narrow_ll, model.crowd_push_tail)
         new = (loglik, step[2], step[3], step[4], step[5], step[6])
     child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
     # Own copies: the parents' fields may be shared.

@@ -17,7 +17,12 @@ import numpy as np
 
 from anonloc_env.geometry import rotate, wrap_angle
 from anonloc_env.identify.arrays import everything, near_best, take_field
-from anonloc_env.identify.contact import first_heading_variance
+from anonloc_env.identify.contact import (
+    PressedInterval,
+    first_heading_variance,
+    mix_pushes,
+    tail_candidates,
+)
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.model import (
     GATE_SIGMAS,
@@ -201,6 +206,19 @@ class Geometry:
         """Too little motion to learn the heading from."""
         return self.s_high * self.rho0 < 2.0 * np.sqrt(self.iso_var)
 
+    def narrowed(self, which: np.ndarray) -> Geometry:
+        """Candidates ``which`` under the narrow pushes of a
+        :class:`~anonloc_env.identify.contact.PressedInterval` (the pushes as they were)."""
+        assert isinstance(self.interval, PressedInterval)
+        assert self.interval.narrow is not None
+        narrow = self.interval.narrow
+        out = object.__new__(Geometry)
+        for name in ("slot", "d", "dphi", "rho0", "var_dphi", "delta", "s", "base_var", "pushed"):
+            setattr(out, name, getattr(self, name)[which])
+        out.model, out.interval, out.s_high = self.model, narrow, self.s_high
+        out.iso_var = out.base_var + out.s**2 * push_isotropic(narrow, self.model)[out.slot]
+        return out
+
     def push_cov(self, which: np.ndarray) -> np.ndarray:
         """``(k, 2, 2)`` unseen contact pushes (m^2, robot frame) of candidates ``which``."""
         return push_covariance(self.interval, self.model)[self.slot[which]]
@@ -319,7 +337,20 @@ def direction_only(
 
 def kalman(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:
     """Heading known, scale known or estimated: an extended Kalman filter on ``(theta, log s)``
-    predicting ``q = p + s R(theta) d``."""
+    predicting ``q = p + s R(theta) d``; a pressed robot's likelihood mixes its wide pushes with
+    narrow ones (:func:`~anonloc_env.identify.contact.mix_pushes`)."""
+    kalman_step(mask, geo, parent, child)
+    tail = tail_candidates(geo.interval, geo.slot, geo.model.crowd_push_tail)
+    tail = tail[mask[tail]]
+    if len(tail):
+        sub_parent = parent.take(tail)
+        sub = Child.start(sub_parent)
+        kalman_step(np.ones(len(tail), bool), geo.narrowed(tail), sub_parent, sub)
+        child.loglik[tail] = mix_pushes(child.loglik[tail], sub.loglik, geo.model.crowd_push_tail)
+
+
+def kalman_step(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:
+    """:func:`kalman` with the pushes of ``geo``'s interval as they are."""
     k = np.flatnonzero(mask)
     sel = everything(k, len(mask))
     # Scale known exactly and no contact: the filter is on theta alone (see kalman_heading).

@@ -17,7 +17,7 @@ from anonloc_env.identify.camera_pose import (
     registered_pixel_noise,
     registration_prior,
 )
-from anonloc_env.identify.contact import CROWD_PUSH_SHARE, break_length
+from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
 from anonloc_env.identify.footprint import View, camera_view
 from anonloc_env.odometry import Interval
 
@@ -71,6 +71,15 @@ class SensorModel:
             (0, 1]; ``None`` (the default): ``push_share`` for every robot. ``from_config``
             sets :data:`anonloc_env.identify.contact.CROWD_PUSH_SHARE` where pictures have no
             misses and no false positives, ``None`` elsewhere (measured worse there).
+        crowd_push_tail: the weight, in (0, 1], of ``crowd_push_share`` in a pressed robot's
+            likelihood; the rest has ``push_share`` (a mixture, see
+            :func:`anonloc_env.identify.contact.mix_pushes`; the heading is updated with
+            ``crowd_push_share`` alone). 1 (the default): ``crowd_push_share`` alone.
+            ``from_config`` sets :data:`anonloc_env.identify.contact.CROWD_PUSH_TAIL` with
+            ``crowd_push_share``.
+        crowd_jam: a robot pushed more than this many intervals in a row (>= 2) is jammed: its
+            likelihood keeps ``crowd_push_share`` alone. The default:
+            :data:`anonloc_env.identify.contact.JAM`.
         contact_break: the contact bound (m, summed over an interval) over which a
             pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
@@ -103,6 +112,8 @@ class SensorModel:
     others_jitter: float = 0.0
     others_turn: float = 0.0
     crowd_push_share: float | None = None
+    crowd_push_tail: float = 1.0
+    crowd_jam: int = JAM
     contact_break: float = 0.0
     registration: RegistrationPrior | None = None
     view: View | None = None
@@ -132,6 +143,9 @@ class SensorModel:
         check_number("others_turn", self.others_turn, 0.0)
         if self.crowd_push_share is not None:
             check_number("crowd_push_share", self.crowd_push_share, 0.0, 1.0, low_open=True)
+        check_number("crowd_push_tail", self.crowd_push_tail, 0.0, 1.0, low_open=True)
+        if not (isinstance(self.crowd_jam, int | np.integer) and self.crowd_jam >= 2):
+            raise ValueError(f"crowd_jam must be an integer >= 2, got {self.crowd_jam!r}")
         check_number("contact_break", self.contact_break, 0.0)
 
     @classmethod
@@ -184,6 +198,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         # The crowd's contact model was measured on clean pictures; with misses or false
         # positives it made `random` slower and less reliable at one robot per m^2 (docs/crowds.md).
         crowd_push_share=CROWD_PUSH_SHARE if clean else None,
+        crowd_push_tail=CROWD_PUSH_TAIL if clean else 1.0,
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
         registration=registration,
         view=None if registration is None else camera_view(config, registration.absolute[2]),
