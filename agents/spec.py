@@ -4,7 +4,7 @@ that trains, runs or loads it.
 An agent is defined by what it sees (its features, by name and meaning, and how many candidate
 commands it chooses among), what it is rewarded for (:class:`Reward`, an object, not a string)
 and where it acts (the condition, and the swarm budget), and when it rests (``rest``: a robot
-sure of itself holds still, :class:`baselines.excitations.rest.RestWhenSure`).
+sure of itself holds still, ``baselines.excitations.rest.RestWhenSure``).
 :class:`agents.crew.Crew`, the SB3 ``VecEnv`` (:class:`agents.vec.AnonLocVecEnv`), the
 PettingZoo env (:class:`agents.pettingzoo.BeliefParallelEnv`), RLlib
 (:func:`agents.rllib.make_ppo_config`) and ``anonloc train`` (through
@@ -127,7 +127,7 @@ class AgentSpec:
         terms: the linear scorer's terms by name and meaning
             (:data:`agents.linear_terms.LINEAR_TERMS`); empty for ``deep_sets``.
         rest: the belief at which a robot holds still until the next picture (on swarm duty: no
-            deviation), in (0.5, 1] (:class:`baselines.excitations.rest.RestWhenSure`); None:
+            deviation), in (0.5, 1] (``baselines.excitations.rest.RestWhenSure``); None:
             the policy chooses at every picture. Saved with the agent, so that it rests where
             it runs as it did where it was trained and searched.
     """

@@ -64,7 +64,7 @@ class OutOfView:
         each of ``rows`` in its uniform weight (None: all alike). After a picture with a
         footprint (``before``) it was most likely out of view there (its weight unknown is what
         the misses left), so it comes back at the edges: the strips' re-entry
-        (:meth:`Footprint.reentry`, motion ``sigma`` per component), but for
+        (``Footprint.reentry``, motion ``sigma`` per component), but for
         :data:`ELSEWHERE` of it, anywhere in view."""
         if before is None:
             return self.log_seen, self.log_unseen, None
