@@ -30,7 +30,7 @@ from agents.saved_agent import check_members, load_failure, run_settings
 from agents.spec import AgentSpec, check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
-from baselines.excitations.rest import RestWhenSure
+from baselines.excitations.rest import at_rest
 from baselines.localizers import BayesLocalizer
 from baselines.policies import Team
 
@@ -176,12 +176,9 @@ def as_saved(model: Any) -> Excitation:
     rest once sure when the spec in its ``policy_kwargs`` sets ``rest``
     (``baselines.excitations.rest.RestWhenSure``), before any swarm duty. Every evaluation of
     a model goes through here, so none forgets the rest it was trained with."""
-    own: Excitation = LearnedExcitation(model)
     data = (getattr(model, "policy_kwargs", None) or {}).get("spec")
     rest = AgentSpec.from_json(data).rest if data is not None else None
-    if rest is not None:
-        own = RestWhenSure(own, rest)
-    return own
+    return at_rest(LearnedExcitation(model), rest)
 
 
 def team(

@@ -59,8 +59,7 @@ from agents.policy import draw
 from agents.run_folder import write_text_atomic
 from anonloc_env._checks import check_number
 from baselines.excitations import Excitation
-from baselines.excitations.rest import RestWhenSure
-from baselines.excitations.uniform import UniformChoice
+from baselines.excitations.rest import at_rest
 
 
 class LinearChooser(CandidateChooser):
@@ -141,10 +140,7 @@ class SearchConfig:
 def chooser(weights: np.ndarray, rest: float | None = None) -> Callable[[], Excitation]:
     """A maker of the linear scorer with ``weights`` (zeros: ``uniform``), at rest once its
     belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
-    if rest is None:
-        return lambda: LinearChooser(weights)
-    sure = rest
-    return lambda: RestWhenSure(LinearChooser(weights), sure)
+    return lambda: at_rest(LinearChooser(weights), rest)
 
 
 def play_weights(
@@ -188,13 +184,13 @@ def costs(
 def validate(
     weights: np.ndarray, episodes: int, pictures: int, rest: float | None = None
 ) -> dict[str, float]:
-    """``weights`` against ``uniform`` (both at rest once sure, with ``rest``) on the validation
-    condition (:func:`agents.evaluation.validate_against_uniform`), in free motion and on swarm
-    duty: the
-    picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
-    ``free_pictures_low``, ... ``swarm_energy_high``) and the censored mean pictures of both."""
+    """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
+    ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
+    in free motion and on swarm duty: the picture and energy ratios with paired 95 % intervals
+    (keys ``free_pictures``, ``free_pictures_low``, ... ``swarm_energy_high``) and the censored
+    mean pictures of both."""
     out: dict[str, float] = {}
-    ablation = chooser(np.zeros(len(LINEAR_TERMS)), rest) if rest is not None else UniformChoice
+    ablation = chooser(np.zeros(len(LINEAR_TERMS)), rest)
     validations = validate_against_uniform(chooser(weights, rest), episodes, pictures, ablation)
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean

@@ -46,7 +46,7 @@ from agents.candidate_features import (
 from agents.linear_terms import LINEAR_TERMS
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
-from baselines.excitations.rest import RestWhenSure
+from baselines.excitations.rest import at_rest
 
 #: Where the agent acts: ``free`` (the chosen candidate is the command), ``swarm`` (a bounded
 #: deviation from a shared command stream) or ``mixed`` (training across drawn scenarios; a
@@ -160,9 +160,7 @@ class AgentSpec:
     def excitation(self, own: Excitation, common_seed: int = 0) -> Excitation:
         """``own`` at rest once sure (when :attr:`rest` is set) in this spec's condition
         (:func:`on_duty`)."""
-        if self.rest is not None:
-            own = RestWhenSure(own, self.rest)
-        return on_duty(self.condition, own, self.budget, common_seed)
+        return on_duty(self.condition, at_rest(own, self.rest), self.budget, common_seed)
 
     def in_scenario(self, condition: str, budget: float) -> AgentSpec:
         """This spec in one drawn scenario's condition and budget (training across them)."""

@@ -27,7 +27,7 @@ from functools import partial
 import numpy as np
 
 from agents.evaluation import censored, play, validate_against_uniform
-from baselines.excitations.rest import RestWhenSure
+from baselines.excitations.rest import uniform_rest
 from baselines.excitations.uniform import UniformChoice
 from baselines.statistics import paired_ratio
 from benchmarks.agent_conditions import evaluation_conditions
@@ -37,10 +37,6 @@ PICTURES = 30
 VALIDATION_PICTURES = 12
 
 
-def _uniform_rest(sure: float) -> RestWhenSure:
-    return RestWhenSure(UniformChoice(), sure)
-
-
 def thresholds(conditions: list[str], sures: list[float], episodes: int, first: int) -> None:
     """Print ``uniform-rest`` at each belief of ``sures`` against ``uniform``."""
     seeds = range(first, first + episodes)
@@ -48,7 +44,7 @@ def thresholds(conditions: list[str], sures: list[float], episodes: int, first: 
         config, condition, budget = evaluation_conditions(PICTURES)[name]
         runs = {}
         for sure in [None, *sures]:
-            make = UniformChoice if sure is None else partial(_uniform_rest, sure)
+            make = UniformChoice if sure is None else partial(uniform_rest, sure)
             results = play(config, condition, budget, make, seeds, PICTURES)
             runs[sure] = np.array([censored(r, PICTURES) for r in results], np.float64)
         base = runs[None]

@@ -74,8 +74,16 @@ class RestWhenSure(Excitation):
         return np.where(still, 0.0, v), np.where(still, 0.0, w)
 
 
-def uniform_rest() -> RestWhenSure:
-    """``uniform`` (:class:`~baselines.excitations.uniform.UniformChoice`) at rest once sure."""
+def at_rest(own: Excitation, sure: float | None) -> Excitation:
+    """``own`` at rest once its belief reaches ``sure`` (:class:`RestWhenSure`), or ``own``
+    itself when ``sure`` is None: the one place where "no rest" is spelled out (the agent's
+    spec, a saved model and the search all read their optional ``rest`` through it)."""
+    return own if sure is None else RestWhenSure(own, sure)
+
+
+def uniform_rest(sure: float = SURE) -> RestWhenSure:
+    """``uniform`` (:class:`~baselines.excitations.uniform.UniformChoice`) at rest once its
+    belief reaches ``sure``."""
     from baselines.excitations.uniform import UniformChoice
 
-    return RestWhenSure(UniformChoice())
+    return RestWhenSure(UniformChoice(), sure)
