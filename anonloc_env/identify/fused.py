@@ -238,12 +238,15 @@ def known_children(
         total += hi[h] - lo[h]
     index = np.empty((2, total), dtype=np.int64)
     out = np.empty((4, total))
+    rho = np.empty(d.shape[0])  # each robot's path, once per robot (not per track)
+    for i in range(d.shape[0]):
+        rho[i] = math.hypot(d[i, 0], d[i, 1])
     k = 0
     for h in range(h_count):
         i = slot_of[h]
         s, th, ptt = _at(scale, h), fields[2, h], fields[3, h]
         d0, d1 = d[i, 0], d[i, 1]
-        rho0 = math.hypot(d0, d1)
+        rho0 = rho[i]
         c, sn = math.cos(th), math.sin(th)
         m0 = s * (c * d0 - sn * d1)
         m1 = s * (sn * d0 + c * d1)
@@ -277,7 +280,7 @@ def known_children(
             out[2, k] = th + ptt * h_e / a + robot[0, i]
             out[3, k] = compiled.maximum(ptt * b / a, 1e-14) + robot[3, i]
             k += 1
-    return index[:, :k].copy(), out[:, :k].copy()
+    return index[:, :k], out[:, :k]  # each row contiguous (callers read rows)
 
 
 @jit
