@@ -5,6 +5,9 @@ each term is a named candidate feature (:data:`agents.candidate_features.CANDIDA
 a named gate read from the robot's context. Softmax ignores anything a robot adds to all its
 candidates alike, so every term must vary across candidates; the gates let the preference
 depend on the robot's state: whether it has decided its row, and whether it is on swarm duty.
+An agent that sees the crowd features (``agents.spec.AgentSpec.with_crowd_features``) has
+:data:`CROWD_TERMS`: a gate ``crowding`` and a base ``contact_risk`` more. Terms are named
+``base*gate`` and computed by name from the columns the spec gives each feature.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
 search that starts there measures what it learns against chance from its first step

@@ -119,3 +119,14 @@ def test_features_this_anonloc_cannot_compute_are_refused() -> None:
     with pytest.raises(ValueError, match="context_features\\[10\\] 'elbow_room' is only in the "):
         check_saved(Path("agent.zip"), saved)
     check_saved(Path("agent.zip"), CROWD)  # every crowd feature and term is known here
+
+
+def test_the_flat_observation_refuses_the_crowd_features() -> None:
+    from agents.pettingzoo import BeliefParallelEnv
+
+    config = anonloc_env.make_config(n_robots=3)
+    with pytest.raises(ValueError, match="observation='flat'"):
+        BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2), observation="flat")
+    env = BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2))  # the dict form takes them
+    observations, _ = env.reset(seed=0)
+    assert observations[env.possible_agents[0]]["context"].shape == (len(CONTEXT_SPEC) + 2,)
