@@ -151,6 +151,31 @@ def test_the_stable_order_is_numpys() -> None:
         np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
 
 
+def test_the_bucket_order_is_the_stable_order() -> None:
+    """The first leg's sort by buckets: ``np.argsort(kind="stable")``, ties included, for keys
+    spread over the span, bunched in one bucket, outside it, infinite or NaN (the fallbacks)."""
+    rng = np.random.default_rng(5)
+    base, span = 30.0, 10.0
+    for n in (0, 1, 2, 17, 300, 2000):
+        spread = base + span * rng.random(n)
+        cases = {
+            "spread": spread,
+            "ties": base + np.floor(span * rng.random(n)),
+            "bunched": base + 1e-9 * rng.random(n),
+            "outside": base + 3 * span * rng.standard_normal(n),
+            "inf": np.where(rng.random(n) < 0.2, np.inf, spread),
+            "nan": np.where(rng.random(n) < 0.1, np.nan, spread),
+        }
+        for name, key in cases.items():
+            order = np.empty(n, dtype=np.int64)
+            fused._bucket_order(key, n, base, span, order, np.empty(2 * n + 1, dtype=np.int64))
+            expected = np.empty(n, dtype=np.int64)
+            fused._stable_order(key, n, expected)
+            np.testing.assert_array_equal(order, expected, err_msg=name)
+            if name != "nan":
+                np.testing.assert_array_equal(order, np.argsort(key, kind="stable"), name)
+
+
 def _links(
     model: SensorModel, on: bool, prev: np.ndarray, rows: np.ndarray, before: Links | None
 ) -> Links | None:

@@ -51,6 +51,48 @@ def _stable_order(key: np.ndarray, n: int, order: np.ndarray) -> None:
 
 
 @jit
+def _bucket_order(
+    key: np.ndarray, n: int, base: float, span: float, order: np.ndarray, work: np.ndarray
+) -> None:
+    """:func:`_stable_order` (the same order, ties by index) in about linear time when the keys
+    spread over ``[base, base + span]``: each index placed, in order, into one of ``n`` buckets by
+    its key (a non-decreasing function of the key, so equal keys share a bucket and keep the
+    order of their indices), then an insertion sort that moves only keys strictly greater. A NaN
+    key, or more moves than a few per key (keys bunched in few buckets), falls back to
+    :func:`_stable_order`. ``work``: ``2 n + 1`` integers of scratch."""
+    scale = n / span
+    counts, bucket = work[: n + 1], work[n + 1 : 2 * n + 1]
+    counts[:] = 0
+    for m in range(n):
+        v = (key[m] - base) * scale
+        if v != v:  # NaN
+            _stable_order(key, n, order)
+            return
+        b = n - 1 if v >= n else (int(v) if v > 0.0 else 0)
+        bucket[m] = b
+        counts[b + 1] += 1
+    for b in range(n - 1):
+        counts[b + 1] += counts[b]
+    for m in range(n):
+        b = bucket[m]
+        order[counts[b]] = m
+        counts[b] += 1
+    budget = 8 * n + 64
+    for i in range(1, n):
+        item = order[i]
+        v = key[item]
+        j = i
+        while j > 0 and key[order[j - 1]] > v:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = item
+        budget -= i - j
+        if budget < 0:  # bunched: the general sort
+            _stable_order(key, n, order)
+            return
+
+
+@jit
 def _first_leg_robot(
     r: int, lo: int, hi: int, leg: Any, found: tuple[np.ndarray, np.ndarray, np.ndarray]
 ) -> tuple[int, float]:
@@ -120,6 +162,7 @@ def first_leg(
     pick, logw, theta = found
     key = np.empty(widest)
     order = np.empty(widest, dtype=np.int64)
+    work = np.empty(2 * widest + 1, dtype=np.int64)
     step = 2.0 * nats + 2.0
     count = 0
     for b in range(len(cuts) - 1):
@@ -137,7 +180,7 @@ def first_leg(
                     pick[kept], logw[kept], theta[kept] = pick[m], logw[m], theta[m]
                     key[kept] = group * step + (floor + nats - logw[m])
                     kept += 1
-            _stable_order(key, kept, order)
+            _bucket_order(key, kept, group * step, nats, order, work)
             for m in range(kept):
                 q = order[m]
                 out_slot[count], out_pick[count] = r, pick[q]
@@ -195,12 +238,15 @@ def known_children(
         total += hi[h] - lo[h]
     index = np.empty((2, total), dtype=np.int64)
     out = np.empty((4, total))
+    rho = np.empty(d.shape[0])  # each robot's path, once per robot (not per track)
+    for i in range(d.shape[0]):
+        rho[i] = math.hypot(d[i, 0], d[i, 1])
     k = 0
     for h in range(h_count):
         i = slot_of[h]
         s, th, ptt = _at(scale, h), fields[2, h], fields[3, h]
         d0, d1 = d[i, 0], d[i, 1]
-        rho0 = math.hypot(d0, d1)
+        rho0 = rho[i]
         c, sn = math.cos(th), math.sin(th)
         m0 = s * (c * d0 - sn * d1)
         m1 = s * (sn * d0 + c * d1)
@@ -234,7 +280,7 @@ def known_children(
             out[2, k] = th + ptt * h_e / a + robot[0, i]
             out[3, k] = compiled.maximum(ptt * b / a, 1e-14) + robot[3, i]
             k += 1
-    return index[:, :k].copy(), out[:, :k].copy()
+    return index[:, :k], out[:, :k]  # each row contiguous (callers read rows)
 
 
 @jit

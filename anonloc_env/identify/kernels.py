@@ -22,7 +22,13 @@ import numpy as np
 from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import fused, fused_calls
-from anonloc_env.identify.arrays import group_sizes, group_starts, near_best, take_field
+from anonloc_env.identify.arrays import (
+    group_sizes,
+    group_starts,
+    near_best,
+    positions,
+    take_field,
+)
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, Gate, worst_variance
 from anonloc_env.identify.likelihood import (
     Child,
@@ -137,7 +143,7 @@ def first_leg(
     return Tracks.fresh(
         slot,
         row,
-        rows[row, :2],
+        positions(rows, row),
         logw,
         pos_var=pairs.pix_var,
         theta=theta,
