@@ -3,7 +3,10 @@ robot (every robot's items in one run, robots in order)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 
 def shared(value: float, count: int, width: int = 0) -> np.ndarray:
@@ -29,13 +32,46 @@ def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
 
 def alike(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
-    ``None`` if they do not."""
-    first = arrays[0]
-    if not all(is_shared(a) for a in arrays):
+    ``None`` if they do not. A part that is not shared holds it too when every item of it is
+    the shared value, bit for bit (a few general-path tracks beside a large shared batch), if
+    such parts are short (at most half of ``count``: checking them costs less than the copy it
+    saves)."""
+    held = [a for a in arrays if is_shared(a)]
+    if not held:
         return None
-    if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
+    value = held[0][0]
+    if not all(np.array_equal(a[0], value, equal_nan=True) for a in held[1:]):
         return None
-    return np.broadcast_to(first[0], (count, *first.shape[1:]))
+    rest = [a for a in arrays if not is_shared(a) and len(a)]
+    if sum(len(a) for a in rest) * 2 > count:
+        return None
+    for a in rest:
+        if not np.array_equal(a, np.broadcast_to(value, a.shape), equal_nan=True):
+            return None
+        if (np.signbit(a) != np.signbit(value)).any():  # 0.0 and -0.0: equal, not alike
+            return None
+    return np.broadcast_to(value, (count, *held[0].shape[1:]))
+
+
+def columns(count: int, kinds: Sequence[tuple[npt.DTypeLike, int]]) -> list[np.ndarray]:
+    """``count``-long arrays, one per ``(dtype, width)`` of ``kinds`` (``width`` 0: ``(count,)``,
+    else ``(count, width)``), each contiguous, all views of one allocation: numpy backs an
+    allocation of 4 MiB or more with huge pages where the system allows, and a fresh array of
+    10^5 tracks costs one page fault per 4 KiB otherwise (several ms of a step at N=1000)."""
+    sizes = [count * max(width, 1) * np.dtype(kind).itemsize for kind, width in kinds]
+    block = np.empty(sum(sizes), dtype=np.uint8)
+    out, at = [], 0
+    for (kind, width), size in zip(kinds, sizes, strict=True):
+        view = block[at : at + size].view(kind)
+        out.append(view.reshape(count, width) if width else view)
+        at += size
+    return out
+
+
+def positions(rows: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``rows[index, :2]`` (a copy, ``(len(index), 2)``) by ``take``: numpy's fancy index of a
+    two-column slice is about ten times slower, which counts for the first leg's 10^5 tracks."""
+    return rows[:, :2].take(index, axis=0)
 
 
 def everything(index: np.ndarray, n: int) -> np.ndarray | slice:
