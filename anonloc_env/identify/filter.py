@@ -222,6 +222,8 @@ class Identifier:
             if view is not None:  # a track predicted out of view is missed at no cost
                 tracks = view.tracks(tracks, interval, pix_var, radius)
             continued, lost_slot, lost_logw = build.missed(tracks, interval, pix_var, floor)
+            if self.registration is not None:  # the frame moved while they went unseen
+                continued.pos_var = self.registration.unseen(continued.pos_var)
             parts.append(continued)
             add_grouped(unanchored, lost_slot, lost_logw)
         parts.extend(anchored_uniform)
