@@ -147,6 +147,23 @@ def renumbered(
     return mine[keep], b[keep]
 
 
+def pruned_order(
+    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, cap: int
+) -> np.ndarray | None:
+    """The identifier's pruned and sorted order of the tracks ``slot``, ``logw`` by
+    :func:`anonloc_env.identify.fused.pruned_order` (the order of
+    ``Identifier._pruned_order``, without its temporaries), ``best`` raised in place; None
+    where the kernels are off, or a robot's best is not finite (``best`` then untouched)."""
+    if compiled.mode() is None:
+        return None
+    raised = best.copy()
+    index, ok = fused.pruned_order(slot.astype(np.int64, copy=False), logw, raised, PRUNE_NATS, cap)
+    if not ok:
+        return None
+    best[:] = raised
+    return index
+
+
 def merge_by_robot(first: Tracks, second: Tracks) -> Tracks:
     """The tracks of ``first`` and ``second`` (each grouped by robot, no robot in both) in one,
     grouped by robot in order, each robot's tracks in their order."""
