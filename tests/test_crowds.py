@@ -153,12 +153,13 @@ def test_contact_model_fields_are_checked() -> None:
 
 
 def test_tracks_break_sooner_in_denser_crowds() -> None:
-    """100 m up to one robot per m^2 (open space as it was), then in proportion to the density;
-    ``from_config`` takes the density of the arena."""
+    """100 m up to one robot per m^2 (open space as it was), then shorter by the square root of
+    the density; ``from_config`` takes the density of the arena."""
     assert break_length(0.25) == break_length(1.0) == CONTACT_BREAK
-    assert break_length(4.0) == pytest.approx(CONTACT_BREAK / 4.0)
+    assert break_length(4.0) == pytest.approx(CONTACT_BREAK / 2.0)
+    assert break_length(6.0) < break_length(4.0) < break_length(1.5) < CONTACT_BREAK
     crowd = SensorModel.from_config(anonloc_env.make_config("crowd"))
-    assert crowd.contact_break == pytest.approx(CONTACT_BREAK / 4.0)
+    assert crowd.contact_break == pytest.approx(CONTACT_BREAK / 2.0)
     with pytest.raises(ValueError, match="density"):
         break_length(0.0)
 
