@@ -93,49 +93,57 @@ CONTEXT_FEATURES = len(CONTEXT_SPEC)
 BELIEF_FLOOR = 1e-12
 
 
-def empty_observation(n: int, candidates: int = CANDIDATES) -> dict[str, np.ndarray]:
-    """``n`` robots' observations before anything was scored (all zeros)."""
+def empty_observation(
+    n: int, candidates: int = CANDIDATES, shape: tuple[int, int] | None = None
+) -> dict[str, np.ndarray]:
+    """``n`` robots' observations before anything was scored (all zeros); ``shape``: the
+    features per candidate and of the context (default: this layout's)."""
+    per_candidate, context = shape or (CANDIDATE_FEATURES, CONTEXT_FEATURES)
     return {
-        "candidates": np.zeros((n, candidates, CANDIDATE_FEATURES), np.float32),
-        "context": np.zeros((n, CONTEXT_FEATURES), np.float32),
+        "candidates": np.zeros((n, candidates, per_candidate), np.float32),
+        "context": np.zeros((n, context), np.float32),
     }
 
 
-def candidate_observation(
-    cset: CandidateSet | None,
-    context: np.ndarray,
-    scale: tuple[float, float],
-    duration: float,
-    pixel_noise: float,
-    candidates: int = CANDIDATES,
+def candidate_columns(
+    cset: CandidateSet, scale: tuple[float, float], duration: float, pixel_noise: float
 ) -> dict[str, np.ndarray]:
-    """The robots' observations (batched, leading robot axis) from their scored candidates.
+    """The candidate features of :data:`CANDIDATE_SPEC`, by name, each ``(R, C)`` float64.
 
     Args:
-        cset: the candidates and their predictions (``GreedyIdentification.score``), or
-            None when nothing was scored (the observation is then zeros but the context).
-        context: ``(R, CONTEXT_FEATURES - 1)`` the context but ``scored``, in
-            :data:`CONTEXT_SPEC`'s order.
+        cset: the candidates and their predictions (``GreedyIdentification.score``).
         scale: ``(v_max, omega_max)`` of the robot.
         duration: the picture interval (s).
         pixel_noise: standard deviation of a detection (image units).
-        candidates: ``C``.
     """
-    out = empty_observation(len(context), candidates)
-    scored = CONTEXT_COLUMN["scored"]
-    out["context"][:, :scored] = context
-    if cset is None:
-        return out
-    rows = out["candidates"]
-    col = CANDIDATE_COLUMN
-    rows[..., col["speed"]] = cset.commands[..., 0] / scale[0]
-    rows[..., col["turn"]] = cset.commands[..., 1] / scale[1]
-    rows[..., col["entropy_after"]] = cset.entropy
-    rows[..., col["information"]] = cset.now[:, None] - cset.entropy
-    rows[..., col["gap_to_best"]] = cset.entropy - cset.entropy.min(axis=1, keepdims=True)
-    rows[..., col["energy"]] = cset.spent / (scale[0] * duration)
-    rows[..., col["reach"]] = np.log1p(cset.reach / max(pixel_noise, 1e-3))
-    out["context"][:, scored] = 1.0
+    return {
+        "speed": cset.commands[..., 0] / scale[0],
+        "turn": cset.commands[..., 1] / scale[1],
+        "entropy_after": cset.entropy,
+        "information": cset.now[:, None] - cset.entropy,
+        "gap_to_best": cset.entropy - cset.entropy.min(axis=1, keepdims=True),
+        "energy": cset.spent / (scale[0] * duration),
+        "reach": np.log1p(cset.reach / max(pixel_noise, 1e-3)),
+    }
+
+
+def stack_columns(
+    candidates: dict[str, np.ndarray] | None,
+    context: dict[str, np.ndarray],
+    names: tuple[tuple[str, ...], tuple[str, ...]],
+    n: int,
+    count: int,
+) -> dict[str, np.ndarray]:
+    """The robots' observations (leading robot axis, float32) from their features by name, in
+    the order of ``names`` (candidate features, context features); ``candidates`` None: nothing
+    was scored, so the candidate features are zeros and the context's ``scored`` is 0."""
+    out = empty_observation(n, count, (len(names[0]), len(names[1])))
+    for i, name in enumerate(names[1]):
+        out["context"][:, i] = 0.0 if name == "scored" else context[name]
+    if candidates is not None:
+        for i, name in enumerate(names[0]):
+            out["candidates"][..., i] = candidates[name]
+        out["context"][:, names[1].index("scored")] = 1.0
     return out
 
 

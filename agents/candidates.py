@@ -19,18 +19,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from agents.candidate_features import (
+    CANDIDATE_SPEC,
     CANDIDATES,
-    CONTEXT_COLUMN,
-    CONTEXT_FEATURES,
+    CONTEXT_SPEC,
+    Feature,
     belief_context,
-    candidate_observation,
+    candidate_columns,
     empty_observation,
+    stack_columns,
 )
-from baselines.active import CandidateSet, GreedyIdentification, GreedySettings
+from agents.crowd_features import crowd_columns
+from agents.spec import check_features
+from anonloc_env.camera import survey
+from baselines.active import CandidateSet, GreedyIdentification, GreedySettings, Hypotheses
 from baselines.steps import BeliefView, Step
 
 
@@ -44,50 +50,114 @@ class CandidateChooser(GreedyIdentification):
     """
 
     def __init__(
-        self, candidates: int = CANDIDATES, settings: GreedySettings | None = None
+        self,
+        candidates: int = CANDIDATES,
+        settings: GreedySettings | None = None,
+        features: tuple[tuple[Feature, ...], tuple[Feature, ...]] | None = None,
     ) -> None:
         base = settings or GreedySettings()
         super().__init__(
             GreedySettings(**{**base.__dict__, "candidates": candidates})  # validated again
         )
         self.candidates = candidates
+        found = features or (CANDIDATE_SPEC, CONTEXT_SPEC)
+        check_features(*found)
+        self.names = (tuple(f.name for f in found[0]), tuple(f.name for f in found[1]))
+        self.crowd = len(found[0]) > len(CANDIDATE_SPEC) or len(found[1]) > len(CONTEXT_SPEC)
         self.cset: CandidateSet | None = None
-        self.observation = empty_observation(0, candidates)
+        self.observation = empty_observation(0, candidates, (len(found[0]), len(found[1])))
         self.decided = False
+        self._view: tuple[float, float, float, float] | None = None
+
+    def _stack(
+        self, candidates: dict[str, np.ndarray] | None, context: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        return stack_columns(candidates, context, self.names, self.n, self.candidates)
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
         self.cset = None
-        self.observation = empty_observation(self.n, self.candidates)
+        self.observation = empty_observation(
+            self.n, self.candidates, (len(self.names[0]), len(self.names[1]))
+        )
         self.decided = False
 
     def on_picture(self, step: Step, view: BeliefView) -> None:
         super().on_picture(step, view)
         model = view.model
         config = view.config
+        pending = self._pending
         cset = self.score()
         belief = np.asarray(view.belief, np.float64)
-        col = CONTEXT_COLUMN
-        context = np.zeros((self.n, CONTEXT_FEATURES - 1))
-        context[:, : col["rows"]] = belief_context(belief, None if cset is None else cset.now)
-        context[:, col["rows"]] = math.log(len(step.rows) + 1.0) / math.log(1001.0)
-        context[:, col["bumper"]] = step.bumper
-        context[:, col["headings"]] = float(model.orientation)
-        context[:, col["on_duty"]] = float(self.following)
-        context[:, col["budget"]] = self.budget if self.following else 0.0
-        context[:, col["p_detect"]] = model.p_detect
+        entropy, largest, absent = belief_context(belief, None if cset is None else cset.now).T
         robot = config.robot
+        context = {
+            "entropy_now": entropy,
+            "largest_belief": largest,
+            "absent": absent,
+            "rows": np.full(self.n, math.log(len(step.rows) + 1.0) / math.log(1001.0)),
+            "bumper": np.asarray(step.bumper, np.float64),
+            "headings": np.full(self.n, float(model.orientation)),
+            "on_duty": np.full(self.n, float(self.following)),
+            "budget": np.full(self.n, self.budget if self.following else 0.0),
+            "p_detect": np.full(self.n, model.p_detect),
+        }
+        columns = None
+        if cset is not None:
+            columns = candidate_columns(
+                cset,
+                (robot.v_max, robot.omega_max),
+                config.schedule.picture_interval,
+                model.pixel_noise,
+            )
+        if self.crowd:
+            crowd, more = self._crowd_columns(view, step.rows, belief, cset, pending)
+            context.update(more)
+            if columns is not None:
+                columns.update(crowd)
         self.cset = cset
-        self.observation = candidate_observation(
-            cset,
-            context,
-            (robot.v_max, robot.omega_max),
-            config.schedule.picture_interval,
-            model.pixel_noise,
-            self.candidates,
-        )
+        self.observation = self._stack(columns, context)
         self.decided = False
         self.on_scored()
+
+    def _crowd_columns(
+        self,
+        view: BeliefView,
+        rows: np.ndarray,
+        belief: np.ndarray,
+        cset: CandidateSet | None,
+        pending: tuple[Hypotheses, Any, Any] | None,
+    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """The crowd features (:func:`agents.crowd_features.crowd_columns`): the believed heading
+        is the top hypothesis's (from the previous picture when headings are not detected)."""
+        model, config = view.model, view.config
+        low, high = model.scale_bounds
+        scale = math.sqrt(low * high)
+        heading = np.full(self.n, np.nan)
+        if pending is not None:
+            hyp = pending[0]
+            heading = np.where(hyp.known[:, 0], hyp.theta[:, 0], np.nan)
+        commands = None
+        if cset is not None:
+            commands = np.stack(
+                [
+                    self.base[0][:, None] + self.budget * cset.commands[..., 0],
+                    self.base[1][:, None] + self.budget * cset.commands[..., 1],
+                ],
+                axis=-1,
+            )
+        if self._view is None:
+            self._view = survey(config).field_of_view
+        return crowd_columns(
+            belief,
+            rows,
+            heading,
+            commands,
+            config.schedule.picture_interval,
+            scale,
+            config.robot.size * scale,
+            self._view,
+        )
 
     def on_scored(self) -> None:
         """Called when the candidates of a new picture are scored (``self.observation``); a

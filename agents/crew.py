@@ -68,7 +68,7 @@ class Crew:
         self.n = config.n_robots
         self.capacity = env.capacity
         self.localizer = BayesLocalizer(config, self.n)
-        self.chooser = CandidateChooser(spec.candidates)
+        self.chooser = CandidateChooser(spec.candidates, features=spec.features)
         self.team = Team(config, self.localizer, spec.excitation(self.chooser))
         self._step: Step | None = None
         self._belief_true = np.zeros(self.n)

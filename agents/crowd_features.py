@@ -25,14 +25,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from agents.candidate_features import Feature
 from anonloc_env.identify import Identifier
 from anonloc_env.neighbours import pairs_within
 
-#: The features, by name and meaning (candidate features first, then context features).
-CROWD_CANDIDATE_FEATURES = (("contact_risk", "share of the candidate's path near a row"),)
-CROWD_CONTEXT_FEATURES = (
-    ("free_space", "nearest other row from the believed self, in robot sizes over look"),
-    ("crowding", "sum of size / distance over the rows within look sizes of the believed self"),
+#: The candidate features, by name and meaning (appended after the layout's own when a spec
+#: names them, :class:`agents.candidates.CandidateChooser`).
+CROWD_CANDIDATE_SPEC = (
+    Feature(
+        "contact_risk",
+        "share of the candidate's path within a robot size of another row or half a size of "
+        "the view's edge, from the believed self, weighed by the top belief (0.5 unknown)",
+    ),
+)
+#: The context features, by name and meaning.
+CROWD_CONTEXT_SPEC = (
+    Feature("free_space", "nearest other row from the believed self, in robot sizes over look"),
+    Feature(
+        "crowding", "sum of size / distance over the rows within look sizes of the believed self"
+    ),
 )
 #: Points along a candidate's path.
 PATH_POINTS = 5
@@ -129,3 +140,24 @@ def contact_risk(
         hit[robot] |= gap2.min(axis=-1) < size**2
     risk = hit.mean(axis=(2, 3))  # over headings and points
     return top[:, None] * risk + 0.5 * (1.0 - top[:, None])
+
+
+def crowd_columns(
+    belief: np.ndarray,
+    rows: np.ndarray,
+    heading: np.ndarray,
+    commands: np.ndarray | None,
+    interval: float,
+    scale: float,
+    size: float,
+    view: tuple[float, float, float, float],
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The crowd features by name: ``({"contact_risk": (R, C)}, {"free_space": (R,),
+    "crowding": (R,)})`` (arguments as :func:`contact_risk`'s; ``commands`` None: nothing was
+    scored, so no candidate feature)."""
+    free, crowd = free_space(belief, rows, size)
+    context = {"free_space": free, "crowding": crowd}
+    if commands is None:
+        return {}, context
+    risk = contact_risk(belief, rows, heading, commands, interval, scale, size, view)
+    return {"contact_risk": risk}, context

@@ -28,9 +28,9 @@ from stable_baselines3.common.distributions import Distribution
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
-from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES
+from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, Feature
 from agents.linear_terms import LINEAR_TERMS, linear_terms
-from agents.spec import SCORERS
+from agents.spec import SCORERS, AgentSpec
 
 
 def _mlp(sizes: list[int], last_activation: bool = True) -> nn.Sequential:
@@ -83,18 +83,29 @@ class LinearScorer(nn.Module):
     Args:
         hidden: width of the value network.
         context_features: features of the context.
+        terms: the terms, by name (:mod:`agents.linear_terms`).
+        columns: the column of each feature by name (``agents.spec.AgentSpec.columns``).
     """
 
-    def __init__(self, hidden: int = 64, context_features: int = CONTEXT_FEATURES) -> None:
+    def __init__(
+        self,
+        hidden: int = 64,
+        context_features: int = CONTEXT_FEATURES,
+        terms: tuple[Feature, ...] = LINEAR_TERMS,
+        columns: tuple[dict[str, int], dict[str, int]] | None = None,
+    ) -> None:
         super().__init__()
-        self.weights = nn.Parameter(torch.zeros(len(LINEAR_TERMS)))
+        self.terms = terms
+        self.columns = columns or AgentSpec().columns()
+        self.weights = nn.Parameter(torch.zeros(len(terms)))
         self.value = _mlp([context_features, hidden, 1], last_activation=False)
 
     def forward(
         self, candidates: torch.Tensor, context: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """``(logits (B, C), value (B,))`` from ``candidates (B, C, F)`` and ``context (B, X)``."""
-        logits = linear_terms(candidates, context, torch.stack) @ self.weights
+        terms = linear_terms(candidates, context, torch.stack, self.terms, self.columns)
+        logits = terms @ self.weights
         return logits, self.value(context).squeeze(-1)
 
 
@@ -132,8 +143,16 @@ class CandidatePolicy(ActorCriticPolicy):
         super().__init__(observation_space, action_space, lr_schedule, net_arch=[], **kwargs)
 
     def _build(self, lr_schedule: Any) -> None:
-        kind = LinearScorer if self.scorer_kind == "linear" else CandidateScorer
-        self.scorer: CandidateScorer | LinearScorer = kind(self.hidden)
+        spec = AgentSpec.from_json(self.spec) if self.spec is not None else None
+        if spec is None:  # a policy without a spec: the layout's features
+            terms = LINEAR_TERMS if self.scorer_kind == "linear" else ()
+            spec = AgentSpec(scorer=self.scorer_kind, terms=terms)
+        sizes = (len(spec.candidate_features), len(spec.context_features))
+        self.scorer: CandidateScorer | LinearScorer
+        if self.scorer_kind == "linear":
+            self.scorer = LinearScorer(self.hidden, sizes[1], spec.terms, spec.columns())
+        else:
+            self.scorer = CandidateScorer(self.hidden, *sizes)
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]  # SB3 types it loosely
             self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
         )

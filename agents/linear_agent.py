@@ -26,9 +26,13 @@ def linear_spec(condition: str = "mixed", budget: float = 0.2) -> AgentSpec:
     return AgentSpec(condition=condition, budget=budget, scorer="linear", terms=LINEAR_TERMS)
 
 
+#: The spec of a linear agent with the defaults (what a search without crowd features saves).
+LINEAR_SPEC = linear_spec()
+
+
 def save_linear_agent(weights: np.ndarray, path: Path, spec: AgentSpec | None = None) -> Path:
-    """Write ``weights`` (one per term of :data:`agents.linear_terms.LINEAR_TERMS`) as an agent
-    at ``path`` (atomically); ``spec`` defaults to :func:`linear_spec`.
+    """Write ``weights`` (one per term of ``spec.terms``) as an agent at ``path``
+    (atomically); ``spec`` defaults to :func:`linear_spec`.
 
     Raises:
         ValueError: ``weights`` has the wrong length or a non-finite value, or ``spec`` is not a
@@ -42,10 +46,10 @@ def save_linear_agent(weights: np.ndarray, path: Path, spec: AgentSpec | None = 
     from agents.features import CandidatePolicy, LinearScorer
     from agents.vec import AnonLocVecEnv
 
-    weights = check_weights(weights)
     spec = spec or linear_spec()
     if spec.scorer != "linear":
         raise ValueError(f"spec must be a linear agent's, got scorer {spec.scorer!r}")
+    weights = check_weights(weights, len(spec.terms))
     free = dataclasses.replace(spec, condition="free")  # the spaces only; the spec saved is `spec`
     venv = AnonLocVecEnv(anonloc_env.make_config(n_robots=2), n_envs=1, spec=free)
     kwargs = {"spec": spec.to_json(), "scorer": "linear"}

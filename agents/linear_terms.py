@@ -5,6 +5,9 @@ each term is a named candidate feature (:data:`agents.candidate_features.CANDIDA
 a named gate read from the robot's context. Softmax ignores anything a robot adds to all its
 candidates alike, so every term must vary across candidates; the gates let the preference
 depend on the robot's state: whether it has decided its row, and whether it is on swarm duty.
+An agent that sees the crowd features (``agents.spec.AgentSpec.with_crowd_features``) has
+:data:`CROWD_TERMS`: a gate ``crowding`` and a base ``contact_risk`` more. Terms are named
+``base*gate`` and computed by name from the columns the spec gives each feature.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
 search that starts there measures what it learns against chance from its first step
@@ -21,7 +24,7 @@ terms of a batch of numpy observations (the search) and of torch tensors (the SB
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -46,48 +49,84 @@ TERM_GATES = (
     Feature("decided", f"1 once the robot's largest belief is at least {DECIDED}"),
     Feature("on_duty", "1 on swarm duty"),
 )
-#: Every term, named ``base*gate``, in the order of :func:`linear_terms`' last axis.
-LINEAR_TERMS = tuple(
-    Feature(f"{b.name}*{g.name}", f"({b.meaning}) times ({g.meaning})")
-    for b in TERM_BASES
-    for g in TERM_GATES
+#: The base and the gate an agent with the crowd features
+#: (``agents.crowd_features``) adds: its terms are every base times ``crowding`` and
+#: ``contact_risk`` times every gate.
+CROWD_BASE = Feature("contact_risk", "the candidate's contact risk (agents.crowd_features)")
+CROWD_GATE = Feature("crowding", "the crowding around the believed self (agents.crowd_features)")
+
+
+def _terms(bases: tuple[Feature, ...], gates: tuple[Feature, ...]) -> tuple[Feature, ...]:
+    return tuple(
+        Feature(f"{b.name}*{g.name}", f"({b.meaning}) times ({g.meaning})")
+        for b in bases
+        for g in gates
+    )
+
+
+#: Every term of the default features, named ``base*gate``, in the order of
+#: :func:`linear_terms`' last axis.
+LINEAR_TERMS = _terms(TERM_BASES, TERM_GATES)
+#: The terms of an agent with the crowd features: :data:`LINEAR_TERMS`, then each base times
+#: ``crowding``, then ``contact_risk`` times each gate.
+CROWD_TERMS = (
+    LINEAR_TERMS
+    + _terms(TERM_BASES, (CROWD_GATE,))
+    + _terms((CROWD_BASE,), (*TERM_GATES, CROWD_GATE))
 )
+#: Every term this anonloc can compute, by name.
+KNOWN_TERMS = {t.name: t for t in CROWD_TERMS}
 
 
-def _bases(candidates: Any) -> list[Any]:
-    speed = candidates[..., CANDIDATE_COLUMN["speed"]]
-    turn = candidates[..., CANDIDATE_COLUMN["turn"]]
-    return [
-        speed,
-        speed * speed,
-        abs(turn),
-        candidates[..., CANDIDATE_COLUMN["entropy_after"]],
-        candidates[..., CANDIDATE_COLUMN["energy"]],
-        candidates[..., CANDIDATE_COLUMN["reach"]],
-    ]
+def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
+    if name == "speed_sq":
+        speed = candidates[..., column["speed"]]
+        return speed * speed
+    if name == "abs_turn":
+        return abs(candidates[..., column["turn"]])
+    return candidates[..., column[name]]
 
 
-def _gates(context: Any) -> list[Any]:
-    one = context[:, None, CONTEXT_COLUMN["scored"]] * 0.0 + 1.0
-    decided = (context[:, None, CONTEXT_COLUMN["largest_belief"]] >= DECIDED) * 1.0
-    return [one, decided, context[:, None, CONTEXT_COLUMN["on_duty"]]]
+def _gate(name: str, context: Any, column: Mapping[str, int]) -> Any:
+    if name == "always":
+        return context[:, None, column["scored"]] * 0.0 + 1.0
+    if name == "decided":
+        return (context[:, None, column["largest_belief"]] >= DECIDED) * 1.0
+    return context[:, None, column[name]]
 
 
-def linear_terms(candidates: Any, context: Any, stack: Callable[..., Any]) -> Any:
-    """``(B, C, T)`` the terms of every candidate, from ``candidates (B, C, F)`` and
+def linear_terms(
+    candidates: Any,
+    context: Any,
+    stack: Callable[..., Any],
+    terms: tuple[Feature, ...] = LINEAR_TERMS,
+    columns: tuple[Mapping[str, int], Mapping[str, int]] = (CANDIDATE_COLUMN, CONTEXT_COLUMN),
+) -> Any:
+    """``(B, C, T)`` the ``terms`` of every candidate, from ``candidates (B, C, F)`` and
     ``context (B, X)`` (numpy arrays with ``stack=np.stack``, or torch tensors with
-    ``stack=torch.stack``), in :data:`LINEAR_TERMS`' order."""
-    gates = _gates(context)
-    return stack([base * gate for base in _bases(candidates) for gate in gates], -1)
+    ``stack=torch.stack``), whose features sit in ``columns`` (candidate, context: the column of
+    each feature by name; :func:`agents.spec.AgentSpec.columns`)."""
+    bases: dict[str, Any] = {}
+    gates: dict[str, Any] = {}
+    out = []
+    for term in terms:
+        base, gate = term.name.split("*")
+        if base not in bases:
+            bases[base] = _base(base, candidates, columns[0])
+        if gate not in gates:
+            gates[gate] = _gate(gate, context, columns[1])
+        out.append(bases[base] * gates[gate])
+    return stack(out, -1)
 
 
-def check_weights(weights: Any) -> np.ndarray:
-    """``weights`` as a float64 array of one finite weight per term of :data:`LINEAR_TERMS`.
+def check_weights(weights: Any, count: int = len(LINEAR_TERMS)) -> np.ndarray:
+    """``weights`` as a float64 array of ``count`` finite weights (one per term, default: of
+    :data:`LINEAR_TERMS`).
 
     Raises:
         ValueError: another length, or a weight that is not finite.
     """
     out = np.asarray(weights, np.float64)
-    if out.shape != (len(LINEAR_TERMS),) or not np.all(np.isfinite(out)):
-        raise ValueError(f"weights must be {len(LINEAR_TERMS)} finite numbers, got {out.tolist()}")
+    if out.shape != (count,) or not np.all(np.isfinite(out)):
+        raise ValueError(f"weights must be {count} finite numbers, got {out.tolist()}")
     return out

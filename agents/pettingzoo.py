@@ -111,9 +111,15 @@ class BeliefParallelEnv(ParallelEnv[str, Any, np.ndarray]):
             raise ValueError(
                 f"observation must be one of {list(OBSERVATION_FORMS)}, got {observation!r}"
             )
+        spec = spec if spec is not None else AgentSpec()
+        if observation == "flat" and spec.features != AgentSpec().features:
+            raise ValueError(
+                "observation='flat' (RLlib's form) has layout 2's features only; this spec "
+                "names the crowd features too: use observation='dict'"
+            )
         config = config if config is not None else PRESETS["default"]
         env = AnonLocEnv(config, render_mode=render_mode, reward_fn=EnergyCost())
-        self.spec = spec if spec is not None else AgentSpec()
+        self.spec = spec
         self.crew = Crew(env, self.spec)
         self.config = config
         self.observation_form = observation

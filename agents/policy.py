@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from agents.candidate_features import CANDIDATE_FEATURES, CONTEXT_FEATURES, LAYOUT
+from agents.candidate_features import LAYOUT
 from agents.candidates import CandidateChooser
 from agents.saved_agent import check_members, load_failure, run_settings
 from agents.spec import AgentSpec, check_saved, on_duty, saved_spec
@@ -65,7 +65,9 @@ class LearnedExcitation(CandidateChooser):
     """
 
     def __init__(self, model: Any, threads: int = 1) -> None:
-        super().__init__(int(model.action_space.n))
+        spec = model_spec(model)
+        features = spec.features if spec is not None else None
+        super().__init__(int(model.action_space.n), features=features)
         if not isinstance(threads, int) or threads < 1:
             raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
         self.model = model
@@ -146,12 +148,20 @@ def load_model(path: str | Path) -> Any:
     space = model.observation_space
     assert isinstance(space, spaces.Dict)  # check_layout saw its two keys
     shapes = (tuple(space["candidates"].shape or ())[1:], space["context"].shape)
-    if shapes != ((CANDIDATE_FEATURES,), (CONTEXT_FEATURES,)):
+    spec = model_spec(model) or AgentSpec()
+    expected = ((len(spec.candidate_features),), (len(spec.context_features),))
+    if shapes != expected:
         raise ValueError(
-            f"{file} has {shapes[0]} features per candidate and {shapes[1]} of context; layout "
-            f"{LAYOUT} has ({CANDIDATE_FEATURES},) and ({CONTEXT_FEATURES},): retrain it"
+            f"{file} has {shapes[0]} features per candidate and {shapes[1]} of context; its "
+            f"spec says {expected[0]} and {expected[1]}: retrain it"
         )
     return model
+
+
+def model_spec(model: Any) -> AgentSpec | None:
+    """The spec in ``model``'s ``policy_kwargs`` (None for a model saved before specs)."""
+    data = (getattr(model, "policy_kwargs", None) or {}).get("spec")
+    return AgentSpec.from_json(data) if data is not None else None
 
 
 def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
@@ -176,9 +186,8 @@ def as_saved(model: Any) -> Excitation:
     rest once sure when the spec in its ``policy_kwargs`` sets ``rest``
     (``baselines.excitations.rest.RestWhenSure``), before any swarm duty. Every evaluation of
     a model goes through here, so none forgets the rest it was trained with."""
-    data = (getattr(model, "policy_kwargs", None) or {}).get("spec")
-    rest = AgentSpec.from_json(data).rest if data is not None else None
-    return at_rest(LearnedExcitation(model), rest)
+    spec = model_spec(model)
+    return at_rest(LearnedExcitation(model), spec.rest if spec is not None else None)
 
 
 def team(

@@ -54,9 +54,11 @@ from agents.conditions import (
     draw_scenario,
 )
 from agents.evaluation import censored, play, validate_against_uniform
+from agents.linear_agent import LINEAR_SPEC
 from agents.linear_terms import LINEAR_TERMS, check_weights, linear_terms
 from agents.policy import draw
 from agents.run_folder import write_text_atomic
+from agents.spec import AgentSpec
 from anonloc_env._checks import check_number
 from baselines.excitations import Excitation
 from baselines.excitations.rest import at_rest
@@ -66,20 +68,28 @@ class LinearChooser(CandidateChooser):
     """Candidates drawn from ``softmax(terms @ weights)`` with each robot's own generator.
 
     Args:
-        weights: ``(T,)`` one weight per term of :data:`agents.linear_terms.LINEAR_TERMS`;
-            all zeros is ``uniform`` bit for bit.
+        weights: ``(T,)`` one weight per term of ``spec.terms``; all zeros is ``uniform`` bit
+            for bit.
+        spec: the features and terms (default: :func:`agents.linear_agent.linear_spec`'s, the
+            layout's features and :data:`agents.linear_terms.LINEAR_TERMS`).
     """
 
-    def __init__(self, weights: np.ndarray) -> None:
-        super().__init__()
-        self.weights = check_weights(weights)
+    def __init__(self, weights: np.ndarray, spec: AgentSpec = LINEAR_SPEC) -> None:
+        super().__init__(spec.candidates, features=spec.features)
+        self.weights = check_weights(weights, len(spec.terms))
+        self.terms = spec.terms
+        self.columns = spec.columns()
 
     def on_scored(self) -> None:
         if self.cset is None:
             return
         obs = self.observation
         terms = linear_terms(
-            obs["candidates"].astype(np.float64), obs["context"].astype(np.float64), np.stack
+            obs["candidates"].astype(np.float64),
+            obs["context"].astype(np.float64),
+            np.stack,
+            self.terms,
+            self.columns,
         )
         self.decide(draw(terms @ self.weights, self.rngs))
 
@@ -112,6 +122,9 @@ class SearchConfig:
     """Seeds the scenarios, the draws and the episodes."""
     minutes: float = 60.0
     """Wall-clock budget (min): no generation starts after it."""
+    crowd: bool = False
+    """Whether the scorer sees the crowd features (``agents.crowd_features``) and has their
+    terms (:data:`agents.linear_terms.CROWD_TERMS`, 28, against 18 without)."""
     rest: float | None = None
     """The belief at which a robot holds still until the next picture, in (0.5, 1]
     (``baselines.excitations.rest.RestWhenSure``): every member and the baseline rest, so the
@@ -137,10 +150,19 @@ class SearchConfig:
             check_number("rest", self.rest, 0.5, 1.0, low_open=True)
 
 
-def chooser(weights: np.ndarray, rest: float | None = None) -> Callable[[], Excitation]:
-    """A maker of the linear scorer with ``weights`` (zeros: ``uniform``), at rest once its
-    belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
-    return lambda: at_rest(LinearChooser(weights), rest)
+def chooser(
+    weights: np.ndarray, rest: float | None = None, spec: AgentSpec = LINEAR_SPEC
+) -> Callable[[], Excitation]:
+    """A maker of the linear scorer of ``spec`` with ``weights`` (zeros: ``uniform``), at rest
+    once its belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
+    return lambda: at_rest(LinearChooser(weights, spec), rest)
+
+
+def search_spec(config: SearchConfig) -> AgentSpec:
+    """The spec of the agent a search finds: linear, with the crowd features when
+    ``config.crowd``, at rest when ``config.rest``."""
+    spec = dataclasses.replace(LINEAR_SPEC, rest=config.rest)
+    return spec.with_crowd_features() if config.crowd else spec
 
 
 def play_weights(
@@ -149,11 +171,12 @@ def play_weights(
     seeds: Sequence[int],
     pictures: int,
     rest: float | None = None,
+    spec: AgentSpec = LINEAR_SPEC,
 ) -> tuple[np.ndarray, int]:
     """``(firsts, decisions)``: ``(len(seeds), 2)`` censored pictures to 99 % and energy to
-    99 % (m) of ``bayes`` robots driven by :func:`chooser` ``(weights, rest)``, and the
+    99 % (m) of ``bayes`` robots driven by :func:`chooser` ``(weights, rest, spec)``, and the
     robot-decisions (robots times pictures) the episodes took."""
-    make = chooser(weights, rest)
+    make = chooser(weights, rest, spec)
     results = play(scenario.config, scenario.condition, scenario.budget, make, seeds, pictures)
     decisions = sum(len(r.records) for r in results)
     return np.array([censored(r, pictures) for r in results], np.float64), decisions
@@ -167,14 +190,17 @@ def costs(
     the robot-decisions played (``uniform``'s included)."""
     ratios = np.zeros((len(members), len(scenarios), 2))
     total = 0
+    spec = search_spec(config)
     for s, (scenario, seeds) in enumerate(scenarios):
         chance, decisions = play_weights(
-            scenario, np.zeros(len(LINEAR_TERMS)), seeds, config.pictures, config.rest
+            scenario, np.zeros(len(spec.terms)), seeds, config.pictures, config.rest, spec
         )
         total += decisions
         base = np.maximum(chance.mean(axis=0), 1e-9)
         for m, weights in enumerate(members):
-            played, decisions = play_weights(scenario, weights, seeds, config.pictures, config.rest)
+            played, decisions = play_weights(
+                scenario, weights, seeds, config.pictures, config.rest, spec
+            )
             ratios[m, s] = played.mean(axis=0) / base
             total += decisions
     logs = np.log(ratios).mean(axis=1)
@@ -182,7 +208,11 @@ def costs(
 
 
 def validate(
-    weights: np.ndarray, episodes: int, pictures: int, rest: float | None = None
+    weights: np.ndarray,
+    episodes: int,
+    pictures: int,
+    rest: float | None = None,
+    spec: AgentSpec = LINEAR_SPEC,
 ) -> dict[str, float]:
     """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
     ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
@@ -190,8 +220,10 @@ def validate(
     (keys ``free_pictures``, ``free_pictures_low``, ... ``swarm_energy_high``) and the censored
     mean pictures of both."""
     out: dict[str, float] = {}
-    ablation = chooser(np.zeros(len(LINEAR_TERMS)), rest)
-    validations = validate_against_uniform(chooser(weights, rest), episodes, pictures, ablation)
+    ablation = chooser(np.zeros(len(spec.terms)), rest, spec)
+    validations = validate_against_uniform(
+        chooser(weights, rest, spec), episodes, pictures, ablation
+    )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
         out[f"{condition}_uniform"] = v.uniform
@@ -291,7 +323,7 @@ def search(
         FileNotFoundError: ``resume`` and there is no search in ``directory``.
         ValueError: ``resume`` with a config other than the saved one.
     """
-    from agents.linear_agent import linear_spec, save_linear_agent
+    from agents.linear_agent import save_linear_agent
 
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "search.json"
@@ -301,12 +333,12 @@ def search(
         if not path.exists():
             raise FileNotFoundError(f"no search to resume in {directory}")
         saved = json.loads(path.read_text())
-        if saved["config"] != _config_json(config):
+        if {**_config_json(SearchConfig()), **saved["config"]} != _config_json(config):
             raise ValueError(f"{directory} was searched with another config: {saved['config']}")
         state = SearchState(**saved["state"])
         history: list[dict[str, Any]] = saved["history"]
     else:
-        state = SearchState()
+        state = SearchState(mu=[0.0] * len(search_spec(config).terms))
         history = []
 
     def save() -> None:
@@ -326,7 +358,11 @@ def search(
         row: dict[str, Any] = {}
         if state.generation % config.validate_every == 0:
             row |= validate(
-                np.asarray(state.mu), config.validation_episodes, config.pictures, config.rest
+                np.asarray(state.mu),
+                config.validation_episodes,
+                config.pictures,
+                config.rest,
+                search_spec(config),
             )
         step(state, config, row.update)
         history.append({"generation": state.generation - 1, **row})
@@ -335,14 +371,17 @@ def search(
     last = history[-1] if history else {}
     if not (last.get("generation") == state.generation and "free_pictures" in last):
         final = validate(
-            np.asarray(state.mu), config.validation_episodes, config.pictures, config.rest
+            np.asarray(state.mu),
+            config.validation_episodes,
+            config.pictures,
+            config.rest,
+            search_spec(config),
         )
         history.append({"generation": state.generation, **final})
         save()
         log(_summary(history[-1]))
     mu = np.asarray(state.mu)
-    spec = dataclasses.replace(linear_spec(), rest=config.rest)
-    save_linear_agent(mu, directory / "agent.zip", spec)
+    save_linear_agent(mu, directory / "agent.zip", search_spec(config))
     return mu
 
 

@@ -43,7 +43,8 @@ from agents.candidate_features import (
     Feature,
     information,
 )
-from agents.linear_terms import LINEAR_TERMS
+from agents.crowd_features import CROWD_CANDIDATE_SPEC, CROWD_CONTEXT_SPEC
+from agents.linear_terms import CROWD_TERMS, KNOWN_TERMS, LINEAR_TERMS
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
 from baselines.excitations.rest import at_rest
@@ -60,6 +61,32 @@ IDENTITY_TERMS = ("log_belief", "information", "team")
 #: The identity term of the ``log_belief`` and ``team`` rewards is floored here (nats: log 1e-3 =
 #: -6.9), so that one robot's bad picture cannot dominate a batch.
 LOG_BELIEF_FLOOR = 1e-3
+
+#: Every feature this anonloc computes, by name: the layout's, then the crowd features
+#: (``agents.crowd_features``), which a spec may append after the layout's.
+KNOWN_CANDIDATE_FEATURES = {f.name: f for f in CANDIDATE_SPEC + CROWD_CANDIDATE_SPEC}
+KNOWN_CONTEXT_FEATURES = {f.name: f for f in CONTEXT_SPEC + CROWD_CONTEXT_SPEC}
+
+
+def check_features(candidate: tuple[Feature, ...], context: tuple[Feature, ...]) -> None:
+    """Refuse features this anonloc cannot compute: each group must be the layout's features
+    (:data:`agents.candidate_features.CANDIDATE_SPEC`, ``CONTEXT_SPEC``), in order, then any of
+    the crowd features, each once.
+
+    Raises:
+        ValueError: naming the group and what is wrong.
+    """
+    groups = (
+        ("candidate_features", candidate, CANDIDATE_SPEC, CROWD_CANDIDATE_SPEC),
+        ("context_features", context, CONTEXT_SPEC, CROWD_CONTEXT_SPEC),
+    )
+    for name, found, base, extras in groups:
+        rest = found[len(base) :]
+        if found[: len(base)] != base or len(set(rest)) != len(rest) or set(rest) - set(extras):
+            raise ValueError(
+                f"{name} must be the layout's {[f.name for f in base]} followed by any of "
+                f"{[f.name for f in extras]}, got {[f.name for f in found]}"
+            )
 
 
 def on_duty(condition: str, own: Excitation, budget: float, common_seed: int = 0) -> Excitation:
@@ -156,6 +183,29 @@ class AgentSpec:
             names = [f.name for f in getattr(self, name)]
             if len(set(names)) != len(names):
                 raise ValueError(f"{name} must have distinct names, got {names}")
+
+    def with_crowd_features(self) -> AgentSpec:
+        """This spec seeing the crowd features too (``agents.crowd_features``: each candidate's
+        ``contact_risk``, the context's ``free_space`` and ``crowding``), and, for the linear
+        scorer, their terms (:data:`agents.linear_terms.CROWD_TERMS`)."""
+        return dataclasses.replace(
+            self,
+            candidate_features=CANDIDATE_SPEC + CROWD_CANDIDATE_SPEC,
+            context_features=CONTEXT_SPEC + CROWD_CONTEXT_SPEC,
+            terms=CROWD_TERMS if self.scorer == "linear" else (),
+        )
+
+    @property
+    def features(self) -> tuple[tuple[Feature, ...], tuple[Feature, ...]]:
+        """``(candidate_features, context_features)``."""
+        return self.candidate_features, self.context_features
+
+    def columns(self) -> tuple[dict[str, int], dict[str, int]]:
+        """The column of each feature by name: ``(candidate columns, context columns)``."""
+        return (
+            {f.name: i for i, f in enumerate(self.candidate_features)},
+            {f.name: i for i, f in enumerate(self.context_features)},
+        )
 
     def excitation(self, own: Excitation, common_seed: int = 0) -> Excitation:
         """``own`` at rest once sure (when :attr:`rest` is set) in this spec's condition
@@ -262,8 +312,16 @@ def check_saved(path: Path, saved: AgentSpec) -> None:
     Raises:
         ValueError: naming what differs.
     """
-    terms = LINEAR_TERMS if saved.scorer == "linear" else ()
-    here = AgentSpec(candidates=saved.candidates, scorer=saved.scorer, terms=terms)
+    here = AgentSpec(
+        candidates=saved.candidates,
+        candidate_features=_known(
+            saved.candidate_features, CANDIDATE_SPEC, KNOWN_CANDIDATE_FEATURES
+        ),
+        context_features=_known(saved.context_features, CONTEXT_SPEC, KNOWN_CONTEXT_FEATURES),
+        scorer=saved.scorer,
+        terms=tuple(KNOWN_TERMS[t.name] for t in saved.terms if t.name in KNOWN_TERMS)
+        or (LINEAR_TERMS if saved.scorer == "linear" else ()),
+    )
     found = here.differences(saved)
     if found:
         raise ValueError(
@@ -271,3 +329,12 @@ def check_saved(path: Path, saved: AgentSpec) -> None:
             + "; ".join(found)
             + ". Retrain it with `anonloc train`, or use the bundled agent."
         )
+
+
+def _known(
+    saved: tuple[Feature, ...], base: tuple[Feature, ...], known: dict[str, Feature]
+) -> tuple[Feature, ...]:
+    """This anonloc's definitions of the features ``saved`` names: the layout's, then the known
+    ones it appends (an unknown name is left out, so that it shows as a difference)."""
+    extra = tuple(known[f.name] for f in saved[len(base) :] if f.name in known)
+    return base + tuple(f for f in extra if f not in base)

@@ -433,7 +433,7 @@ def search(
     verbose: Verbose = 0,
     config: dict[str, Any] | None = None,
 ) -> None:
-    """Search the weights of a linear agent against chance (the cross-entropy method).
+    """Search the weights of a linear agent against chance (an evolution strategy).
 
     Every generation plays `uniform` and each candidate weight vector on the same drawn training
     scenarios and seeds, and keeps the ones that need fewer pictures and less energy than

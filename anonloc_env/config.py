@@ -137,7 +137,8 @@ class CameraConfig:
             ArUco marker and detect the markers with OpenCV; see :mod:`anonloc_env.images`; needs
             the ``images`` extra). With ``"image"`` the errors are the detector's own:
             ``pixel_noise``, ``orientation_noise_deg``, ``p_miss`` and ``false_positives`` are not
-            applied, and the sensor model localizers build uses the measured values instead.
+            applied; the env states the measured values in their place in ``env.config``
+            (:func:`anonloc_env.detection.stated_config`), and localizers model those.
         image_pixels_per_unit: pixels of the rendered image per image unit, in (0, 1000],
             and at least what gives a marker cell 0.1 pixel (:data:`MIN_CELL_PIXELS`).
             ``None`` chooses it so that one cell of a robot's marker spans 5 pixels (a marker of

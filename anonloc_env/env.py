@@ -18,7 +18,7 @@ from anonloc_env.actions import check_action_array, stack_actions
 from anonloc_env.camera import Camera, DetectionSource, Picture
 from anonloc_env.camera_motion import CameraMotion
 from anonloc_env.config import EnvConfig
-from anonloc_env.detection import detection_source
+from anonloc_env.detection import detection_source, stated_config
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space, space_copy
 from anonloc_env.odometry import Interval, Odometry
@@ -122,7 +122,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
     `render_mode` (`None`, `"human"` or `"rgb_array"`), `reward_fn` (a `RewardFunction`), and
     `detector` (a `DetectionSource` to replace the built-in camera). With
     `camera={"source": "image"}` pictures are rendered and their markers detected with OpenCV
-    (`anonloc_env.images`, the `images` extra); `render` then shows the image in a corner.
+    (`anonloc_env.images`, the `images` extra); `render` then shows the image in a corner, and
+    `env.config` states the detector's errors measured on seeded pictures in place of the camera's
+    nominal `pixel_noise`, `orientation_noise_deg`, `p_miss` and `false_positives`, which the image
+    path does not apply (`anonloc_env.detection.stated_config`: the calibration step, once per
+    config), so that localizers built for the env model the pictures it takes.
 
     ## Copies
     A copy made with `pickle` or `copy.deepcopy` is rebuilt from the constructor's arguments
@@ -151,6 +155,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.config = config if config is not None else PRESETS["default"]
         if not isinstance(self.config, EnvConfig):
             raise TypeError(f"config must be an EnvConfig, got {type(self.config).__name__}")
+        if detector is None:  # its own image source: the config states the measured errors
+            self.config = stated_config(self.config)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {[None, *self.metadata['render_modes']]}, "

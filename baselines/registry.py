@@ -17,6 +17,7 @@ from typing import Any
 import anonloc_env
 from anonloc_env._checks import did_you_mean
 from anonloc_env.config import EnvConfig
+from anonloc_env.detection import stated_config
 from baselines.catalog import (
     BUILT_IN_EXCITATIONS,
     BUILT_IN_POLICIES,
@@ -109,6 +110,7 @@ def scenario_config(env: Any = None, config: EnvConfig | str | None = None) -> E
         raise TypeError(
             f"config must be an EnvConfig or a preset name, got {type(config).__name__}"
         )
+    config = stated_config(config)  # an image source's measured errors, as its env states them
     if from_env is not None and from_env != config:
         raise ValueError("env and config describe different scenarios: pass one of them")
     return config

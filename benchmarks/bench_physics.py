@@ -20,7 +20,9 @@ What is measured:
 * ``bare``: :class:`BareLoop`, the bare pymunk loop of issue 18: the same square robots and
   walls in a plain pymunk space, the commanded velocities written with ``pymunk.batch``, one
   space step of ``dt``, the poses read with ``pymunk.batch``, a shuffled picture every 10 steps,
-  and the per-agent observation dicts (the env's keys, views of shared arrays).
+  and the per-agent observation dicts (the env's keys, views of shared arrays). At 4 robots/m²
+  also with the env's sub-steps (two space steps of ``dt / 2`` at the default ``dt``, which keep
+  a robot from crossing another within a step): the same physics work on both sides.
 * ``mpe2``: ``simple_spread_v3`` (parallel API, discrete actions) with N = 100, against the env
   at N = 100, 4 robots per m².
 * ``vmas``: ``navigation``, 1024 CPU environments of 4 agents with collisions, against the env
@@ -68,11 +70,14 @@ class BareLoop:
         side: side of the square arena (m).
         dt: the step (s).
         seed: seeds the start poses and the picture shuffles.
+        substeps: space steps of ``dt / substeps`` per step (1: issue 18's loop; the env's
+            count: the same physics work as the env, whose sub-steps keep a robot from
+            crossing another in one step).
     """
 
-    def __init__(self, n: int, side: float, dt: float, seed: int) -> None:
+    def __init__(self, n: int, side: float, dt: float, seed: int, substeps: int = 1) -> None:
         robot = RobotConfig()
-        self.n, self.dt = n, dt
+        self.n, self.dt, self.substeps = n, dt, substeps
         self.rng = np.random.default_rng(seed)
         self.space = pymunk.Space(threaded=False)
         grid = math.ceil(math.sqrt(n))
@@ -101,7 +106,8 @@ class BareLoop:
         self.velocity[:n, 2] = commands[:, 1]
         fields = pmb.BodyFields.VELOCITY | pmb.BodyFields.ANGULAR_VELOCITY
         pmb.set_space_bodies(self.space, fields, self.set_buffer)
-        self.space.step(self.dt)
+        for _ in range(self.substeps):
+            self.space.step(self.dt / self.substeps)
         self.get_buffer.clear()
         pmb.get_space_bodies(
             self.space, pmb.BodyFields.POSITION | pmb.BodyFields.ANGLE, self.get_buffer
@@ -110,8 +116,10 @@ class BareLoop:
         return self.observations.build(self.poses)
 
 
-def env_and_bare(n: int, density: float) -> dict[str, Block]:
-    """Timed blocks of the env and the bare loop with ``n`` robots at ``density`` per m²."""
+def env_and_bare(n: int, density: float) -> tuple[dict[str, Block], int]:
+    """Timed blocks of the env and the bare loop with ``n`` robots at ``density`` per m² (the
+    bare loop with one space step per step, and with the env's sub-steps), and how many
+    sub-steps the env takes per step."""
     side = math.sqrt(n / density)
     env = anonloc_env.parallel_env(
         n_robots=n,
@@ -122,19 +130,27 @@ def env_and_bare(n: int, density: float) -> dict[str, Block]:
     env.reset(seed=SEED)
     robot = env.config.robot
     scale = np.array([robot.v_max, robot.omega_max])
-    bare = BareLoop(n, side, env.config.dt, SEED)
+    assert env.world is not None
     rng = np.random.default_rng(SEED)
 
-    def bare_block(k: int) -> float:
-        step, spent = bare.step, 0.0
-        for _ in range(k):
-            commands = rng.uniform(-1.0, 1.0, (n, 2)) * scale
-            start = clock()
-            step(commands)
-            spent += clock() - start
-        return spent
+    def bare_block(bare: BareLoop) -> Block:
+        def block(k: int) -> float:
+            step, spent = bare.step, 0.0
+            for _ in range(k):
+                commands = rng.uniform(-1.0, 1.0, (n, 2)) * scale
+                start = clock()
+                step(commands)
+                spent += clock() - start
+            return spent
 
-    return {"env": env_block(env, rng), "bare": bare_block}
+        return block
+
+    matched = BareLoop(n, side, env.config.dt, SEED, env.world.substeps)
+    return {
+        "env": env_block(env, rng),
+        "bare": bare_block(BareLoop(n, side, env.config.dt, SEED)),
+        "bare, env's sub-steps": bare_block(matched),
+    }, matched.substeps
 
 
 def ratio(
@@ -174,12 +190,16 @@ def main(argv: list[str] | None = None) -> None:
     print("| ratio | median | per round |\n|---|---:|---|")
     envs: dict[tuple[int, float], Block] = {}
     for n, density in SCENARIOS:
-        blocks = env_and_bare(n, density)
+        blocks, substeps = env_and_bare(n, density)
         envs[(n, density)] = blocks["env"]
         steps = 200 if n == 100 else 40
         value, ratios = ratio(blocks["env"], blocks["bare"], (steps, steps), args.rounds, 1.0)
         target = 0.5 if density == 4.0 else None
         show(f"env / bare loop, N = {n}, {density:g} robots/m²", value, ratios, target)
+        if density == 4.0:  # the same physics work on both sides: what the sub-steps cost
+            matched = blocks["bare, env's sub-steps"]
+            value, ratios = ratio(blocks["env"], matched, (steps, steps), args.rounds, 1.0)
+            show(f"env / bare loop of {substeps} sub-steps, N = {n}, 4/m²", value, ratios, None)
     for name in ("mpe2", "vmas"):
         why = "--no-peers" if args.no_peers else import_error(name)
         if why is not None:

@@ -28,7 +28,14 @@ def _saved(tmp_path: Path, spec: AgentSpec, name: str = "agent.zip") -> Path:
     """A tiny untrained agent whose zip records ``spec`` (as ``anonloc train`` saves one)."""
     from stable_baselines3 import PPO
 
-    venv = AnonLocVecEnv(CONFIG, spec=spec.in_scenario("free", spec.budget))
+    # The env gives the spaces only (this anonloc's features, as many); the zip records `spec`,
+    # which may name another anonloc's features.
+    spaces = dataclasses.replace(
+        spec.in_scenario("free", spec.budget),
+        candidate_features=CANDIDATE_SPEC[: len(spec.candidate_features)],
+        context_features=CONTEXT_SPEC[: len(spec.context_features)],
+    )
+    venv = AnonLocVecEnv(CONFIG, spec=spaces)
     kwargs = {"hidden": 8, "spec": spec.to_json()}
     model = PPO(CandidatePolicy, venv, n_steps=8, batch_size=8, policy_kwargs=kwargs)
     path = tmp_path / name

@@ -19,6 +19,18 @@ FORBIDDEN = {
     "baselines": {"agents", "anonloc_cli"},
     "agents": {"anonloc_cli"},
 }
+#: Inside ``anonloc_env``: module prefix -> the modules it must not import. The identifier is pure
+#: maths on pictures (it never renders, measures a detector or runs an env); the image path is a
+#: detection source and its calibration tools (they never run an env or read beliefs).
+INNER = {
+    "anonloc_env.identify": (
+        "anonloc_env.images",
+        "anonloc_env.detection",
+        "anonloc_env.env",
+        "anonloc_env.rewards",
+    ),
+    "anonloc_env.images": ("anonloc_env.env", "anonloc_env.rewards", "anonloc_env.identify"),
+}
 #: ``python -m anonloc_env`` is the command line, as the ``anonloc`` console script is.
 ALLOWED = {("anonloc_env.__main__", "anonloc_cli.app")}
 
@@ -119,6 +131,18 @@ def test_a_package_imports_nothing_above_it(package: str) -> None:
         if target.split(".")[0] in FORBIDDEN[package] and (module, target) not in ALLOWED
     )
     assert upward == []
+
+
+@pytest.mark.parametrize("inner", sorted(INNER))
+def test_inner_layers_of_the_env(inner: str) -> None:
+    crossing = sorted(
+        (module, target)
+        for module, targets in GRAPH.items()
+        if module == inner or module.startswith(inner + ".")
+        for target in targets
+        if any(target == f or target.startswith(f + ".") for f in INNER[inner])
+    )
+    assert crossing == []
 
 
 def test_nothing_but_the_command_line_imports_it() -> None:

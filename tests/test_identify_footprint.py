@@ -5,11 +5,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 import anonloc_env
-from anonloc_env.identify import SensorModel
+from anonloc_env.identify import Identifier, SensorModel
+from anonloc_env.identify.arrays import is_shared, shared
+from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.identify.footprint import Footprint, View
 from anonloc_env.landmarks import border_landmarks
+from anonloc_env.odometry import Interval
 from anonloc_env.rewards import EnergyCost
 
 SQUARE = ((0.0, 0.0), (100.0, 0.0), (100.0, 100.0), (0.0, 100.0))
@@ -97,3 +101,40 @@ def test_robot_leaving_and_reentering_the_view_is_right_or_undecided() -> None:
     assert returns >= 20
     assert wrong == 0
     assert right >= 0.6 * returns
+
+
+def _missed_tracks(config: anonloc_env.EnvConfig) -> tuple[np.ndarray, float]:
+    """Position variances of one robot's tracks continued through a miss (its row left out of
+    the third picture), and the third picture's registration error."""
+    identifier = Identifier(SensorModel.from_config(config), 1)
+    rng = np.random.default_rng(7)
+    rows = np.column_stack([rng.uniform(30.0, 290.0, (10, 2)), np.zeros(10)])
+    rows[0, :2] = (1.0, 150.0)  # at the view's edge: it may leave
+    step = Interval.exact(np.array([[0.02, 0.0]]), np.zeros(1))
+    identifier.update(rows)
+    identifier.update(rows + np.array([2.0, -1.0, 0.0]), step)  # the camera shifted
+    identifier.update(rows[1:] + np.array([3.0, 1.0, 0.0]), step)  # and row 0 is not seen
+    assert identifier.registration is not None
+    tracks = identifier.tracks
+    return np.asarray(tracks.pos_var[tracks.row < 0]), identifier.registration.error
+
+
+def test_a_robot_unseen_carries_the_frames_change(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A robot missed in a picture is compared, when seen again, across every registration in
+    between: its predicted place's variance grows by each registration's error squared."""
+    config = _config("drone-windy")
+    widened, error = _missed_tracks(config)
+    monkeypatch.setattr(Registration, "unseen", lambda self, pos_var: pos_var)
+    plain, _ = _missed_tracks(config)
+    assert len(widened) >= 1
+    assert error > 0.0
+    np.testing.assert_allclose(widened - plain, error**2)
+
+
+def test_unseen_keeps_a_shared_field_shared() -> None:
+    registration = Registration(SensorModel.from_config(_config("drone-hover")).registration)
+    registration.error = 3.0
+    out = registration.unseen(shared(2.0, 5))
+    assert is_shared(out)
+    np.testing.assert_allclose(out, 11.0)
+    np.testing.assert_allclose(registration.unseen(np.array([1.0, 2.0])), [10.0, 11.0])

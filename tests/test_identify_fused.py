@@ -17,7 +17,7 @@ from test_identify_paths import DRAWN, RECORDED, Episode, _record
 from anonloc_env import compiled, make_config
 from anonloc_env.identify import Identifier, SensorModel, fused, fused_calls
 from anonloc_env.identify.others import Links, links_between
-from anonloc_env.identify.tracks import FIELDS
+from anonloc_env.identify.tracks import FIELDS, Tracks
 
 pytest.importorskip("numba")
 pytestmark = pytest.mark.skipif(
@@ -149,6 +149,69 @@ def test_the_stable_order_is_numpys() -> None:
         order = np.empty(n, dtype=np.int64)
         fused._stable_order(key, n, order)
         np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
+
+
+def test_the_bucket_order_is_the_stable_order() -> None:
+    """The first leg's sort by buckets: ``np.argsort(kind="stable")``, ties included, for keys
+    spread over the span, bunched in one bucket, outside it, infinite or NaN (the fallbacks)."""
+    rng = np.random.default_rng(5)
+    base, span = 30.0, 10.0
+    for n in (0, 1, 2, 17, 300, 2000):
+        spread = base + span * rng.random(n)
+        cases = {
+            "spread": spread,
+            "ties": base + np.floor(span * rng.random(n)),
+            "bunched": base + 1e-9 * rng.random(n),
+            "outside": base + 3 * span * rng.standard_normal(n),
+            "inf": np.where(rng.random(n) < 0.2, np.inf, spread),
+            "nan": np.where(rng.random(n) < 0.1, np.nan, spread),
+        }
+        for name, key in cases.items():
+            order = np.empty(n, dtype=np.int64)
+            fused._bucket_order(key, n, base, span, order, np.empty(2 * n + 1, dtype=np.int64))
+            expected = np.empty(n, dtype=np.int64)
+            fused._stable_order(key, n, expected)
+            np.testing.assert_array_equal(order, expected, err_msg=name)
+            if name != "nan":
+                np.testing.assert_array_equal(order, np.argsort(key, kind="stable"), name)
+
+
+@pytest.mark.skipif(compiled.mode() is None, reason="kernels off")
+def test_the_compiled_prune_keeps_numpys_order() -> None:
+    """``fused_calls.pruned_order`` against ``Identifier._pruned_order``: the same tracks in
+    the same order and the same raised best, with ties, a cap on the tracks per robot, robots
+    with no track; None (best untouched) when a robot's best is not finite."""
+    rng = np.random.default_rng(6)
+    model = SensorModel.from_config(make_config(n_robots=12))
+    for cap in (1, 3, 1024):
+        ident = Identifier(model, 12, max_tracks=cap)
+        sizes = rng.integers(0, 40, 3)
+        parts = [
+            Tracks.fresh(
+                np.sort(rng.integers(0, 12, k)),
+                np.zeros(k, np.int64),
+                np.zeros((k, 2)),
+                np.round(rng.normal(0.0, 20.0, k), 1),  # ties
+                pos_var=1.0,
+                theta=0.0,
+                p_tt=1.0,
+                log_s=0.0,
+            )
+            for k in sizes
+        ]
+        slot = np.concatenate([p.slot for p in parts])
+        logw = np.concatenate([p.logw for p in parts])
+        start = np.where(rng.random(12) < 0.5, -np.inf, rng.normal(0.0, 20.0, 12))
+        best = start.copy()
+        got = fused_calls.pruned_order(slot, logw, best, cap)
+        want_best = start.copy()
+        want = ident._pruned_order(parts, slot, logw, want_best)
+        assert got is not None
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(best, want_best)
+    lost = np.full(12, -np.inf)
+    assert fused_calls.pruned_order(slot[:0], logw[:0], lost, 8) is None
+    assert np.isneginf(lost).all()
 
 
 def _links(

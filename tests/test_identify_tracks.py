@@ -67,3 +67,28 @@ def test_shared_fields_that_differ_between_parts_are_written_out() -> None:
     got = Tracks.gather([a, b], np.arange(17)[::-1])
     np.testing.assert_array_equal(got.pos_var, np.r_[np.full(7, 4.0), np.full(10, 2.5)])
     assert got.pos_var.strides[0] != 0
+
+
+def test_a_short_part_written_out_with_the_shared_value_stays_shared() -> None:
+    """A few general-path tracks that hold a batch's shared value in full: the gathered field
+    stays shared (the same floats); a differing item, a -0.0 for 0.0, or a part too long to be
+    worth checking, writes it out."""
+    rng = np.random.default_rng(2)
+    a, b = _part(rng, 300, 0), _part(rng, 20, 5)
+    b.log_s, b.p_ts = np.full(20, np.log(100.0)), np.zeros(20)
+    b.p_ss = np.zeros(20)
+    b.p_ss[3] = -0.0
+    b.pos_var = np.full(20, 2.5)
+    b.pos_var[7] = np.nextafter(2.5, 3.0)
+    index = rng.permutation(320)
+    got = Tracks.gather([a, b], index)
+    want = Tracks.concat([a, b]).take(index)
+    for f in FIELDS:
+        np.testing.assert_array_equal(getattr(got, f), getattr(want, f), err_msg=f)
+    assert got.log_s.strides[0] == 0
+    assert got.p_ts.strides[0] == 0
+    assert np.signbit(got.p_ss).sum() == 1  # written out: the -0.0 kept
+    assert got.pos_var.strides[0] != 0
+    long = _part(rng, 400, 5)
+    long.log_s = np.full(400, np.log(100.0))
+    assert Tracks.gather([a, long], np.arange(700)).log_s.strides[0] != 0

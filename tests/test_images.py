@@ -12,11 +12,13 @@ pytest.importorskip("cv2", reason="the image source needs the images extra (Open
 import anonloc_env
 from anonloc_env.camera import Camera
 from anonloc_env.config import CameraConfig
+from anonloc_env.detection import stated_config
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import SensorModel
 from anonloc_env.images import (
     ImageCamera,
     calibrate,
+    calibrated,
     effective_camera,
     measured_errors,
     pixel_frame,
@@ -190,9 +192,15 @@ def test_env_option_takes_pictures_through_the_image_path() -> None:
 
 
 def test_sensor_model_describes_the_measured_errors() -> None:
+    """The env states the image path's measured errors in its config, and the localizers built
+    for it, or for the scenario alone, model those."""
+    import baselines
+
     config = _config("paper-motion", image_noise=6.0, image_blur=1.0)
     errors = measured_errors(config)
-    model = SensorModel.from_config(config)
+    env = anonloc_env.AnonLocEnv(config)
+    assert env.config == stated_config(config)
+    model = SensorModel.from_config(env.config)
     assert model.pixel_noise == pytest.approx(errors.pixel_noise)
     assert model.orientation_noise == pytest.approx(math.radians(errors.orientation_noise_deg))
     assert model.p_detect == pytest.approx(1.0 - errors.p_miss)
@@ -200,8 +208,33 @@ def test_sensor_model_describes_the_measured_errors() -> None:
     assert config.camera.pixel_noise == 2.40
     assert 0.0 < errors.pixel_noise < 0.5
     assert 0.0 < errors.orientation_noise_deg < 5.0
+    for scenario in (baselines.scenario_config(env), baselines.scenario_config(config=config)):
+        assert SensorModel.from_config(scenario) == model
     geometric = anonloc_env.make_config("paper-motion")
     assert effective_camera(geometric) is geometric.camera
+    assert stated_config(geometric) is geometric
+
+
+def test_calibrating_twice_changes_nothing() -> None:
+    config = _config("default", 12, image_noise=3.0)
+    once = calibrated(config)
+    assert once != config
+    assert calibrated(once) == once
+    assert measured_errors(once) == measured_errors(config)
+
+
+def test_sensor_model_renders_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sensor model reads the camera section as stated: building it from an image config
+    takes no picture (the calibration is the env's explicit step)."""
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("SensorModel.from_config took a picture")
+
+    monkeypatch.setattr(ImageCamera, "take", refuse)
+    config = _config("default", 7, pixel_noise=1.25, p_miss=0.1)
+    model = SensorModel.from_config(config)
+    assert model.pixel_noise == pytest.approx(1.25)
+    assert model.p_detect == pytest.approx(0.9)
 
 
 def test_calibration_recovers_scale_and_tilt() -> None:

@@ -3,7 +3,10 @@ robot (every robot's items in one run, robots in order)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 
 def shared(value: float, count: int, width: int = 0) -> np.ndarray:
@@ -11,8 +14,22 @@ def shared(value: float, count: int, width: int = 0) -> np.ndarray:
     memory (stride 0): a field that every track of a batch holds alike (a first leg's position
     variance, a known scale, no carried motion). ``Tracks.take``, ``concat`` and ``gather`` keep
     such a field shared, so large batches do not write it out."""
-    shape = (count, width) if width else (count,)
-    return np.broadcast_to(np.float64(value), shape)
+    if width:
+        return np.broadcast_to(np.float64(value), (count, width))
+    return repeated(np.float64(value), count)
+
+
+def repeated(item: np.ndarray | np.generic, count: int) -> np.ndarray:
+    """``np.broadcast_to(item, (count, *item.shape))``: ``count`` read-only copies of ``item``
+    taking no memory (stride 0). A single number's is built directly, at a third of the cost
+    of ``np.broadcast_to`` (which the identifier would call tens of thousands of times a
+    minute)."""
+    if np.ndim(item):
+        return np.broadcast_to(item, (count, *np.shape(item)))
+    one = np.asarray(item)
+    out = np.ndarray((count,), one.dtype, one, strides=(0,))
+    out.flags.writeable = False
+    return out
 
 
 def is_shared(a: np.ndarray) -> bool:
@@ -23,19 +40,52 @@ def is_shared(a: np.ndarray) -> bool:
 def take_field(a: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
     """``a[index]`` (``count`` long); a shared field stays shared."""
     if is_shared(a):
-        return np.broadcast_to(a[0], (count, *a.shape[1:]))
+        return repeated(a[0], count)
     return a[index]
 
 
 def alike(arrays: list[np.ndarray], count: int) -> np.ndarray | None:
     """The ``count``-long shared field that ``arrays`` (one per part) all hold alike, or
-    ``None`` if they do not."""
-    first = arrays[0]
-    if not all(is_shared(a) for a in arrays):
+    ``None`` if they do not. A part that is not shared holds it too when every item of it is
+    the shared value, bit for bit (a few general-path tracks beside a large shared batch), if
+    such parts are short (at most half of ``count``: checking them costs less than the copy it
+    saves)."""
+    held = [a for a in arrays if is_shared(a)]
+    if not held:
         return None
-    if not all(np.array_equal(a[0], first[0], equal_nan=True) for a in arrays[1:]):
+    value = held[0][0]
+    if not all(np.array_equal(a[0], value, equal_nan=True) for a in held[1:]):
         return None
-    return np.broadcast_to(first[0], (count, *first.shape[1:]))
+    rest = [a for a in arrays if not is_shared(a) and len(a)]
+    if sum(len(a) for a in rest) * 2 > count:
+        return None
+    for a in rest:
+        if not np.array_equal(a, np.broadcast_to(value, a.shape), equal_nan=True):
+            return None
+        if (np.signbit(a) != np.signbit(value)).any():  # 0.0 and -0.0: equal, not alike
+            return None
+    return repeated(value, count)
+
+
+def columns(count: int, kinds: Sequence[tuple[npt.DTypeLike, int]]) -> list[np.ndarray]:
+    """``count``-long arrays, one per ``(dtype, width)`` of ``kinds`` (``width`` 0: ``(count,)``,
+    else ``(count, width)``), each contiguous, all views of one allocation: numpy backs an
+    allocation of 4 MiB or more with huge pages where the system allows, and a fresh array of
+    10^5 tracks costs one page fault per 4 KiB otherwise (several ms of a step at N=1000)."""
+    sizes = [count * max(width, 1) * np.dtype(kind).itemsize for kind, width in kinds]
+    block = np.empty(sum(sizes), dtype=np.uint8)
+    out, at = [], 0
+    for (kind, width), size in zip(kinds, sizes, strict=True):
+        view = block[at : at + size].view(kind)
+        out.append(view.reshape(count, width) if width else view)
+        at += size
+    return out
+
+
+def positions(rows: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``rows[index, :2]`` (a copy, ``(len(index), 2)``) by ``take``: numpy's fancy index of a
+    two-column slice is about ten times slower, which counts for the first leg's 10^5 tracks."""
+    return rows[:, :2].take(index, axis=0)
 
 
 def everything(index: np.ndarray, n: int) -> np.ndarray | slice:

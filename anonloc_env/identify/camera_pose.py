@@ -50,6 +50,7 @@ import numpy as np
 
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
+from anonloc_env.identify.arrays import is_shared, shared
 from anonloc_env.landmarks import landmark_error
 from anonloc_env.neighbours import pairs_within
 
@@ -239,6 +240,16 @@ class Registration:
         previous picture and the newest: the detector's, plus half the registration's (a
         displacement takes two rows' noise and one registration error)."""
         return self.prior.pixel_noise**2 + 0.5 * self.error**2
+
+    def unseen(self, pos_var: np.ndarray) -> np.ndarray:
+        """``pos_var`` (per component, image units squared) of positions predicted for robots
+        missed in the newest picture, widened by the frame's change since the previous picture
+        (``error`` squared): a robot seen again ``m`` pictures later is compared across ``m``
+        registrations, whose errors add up. A field shared by every track stays shared."""
+        extra = self.error**2
+        if is_shared(pos_var):
+            return shared(float(pos_var[0]) + extra, len(pos_var))
+        return pos_var + extra
 
     def register(self, rows: np.ndarray) -> np.ndarray:
         """The picture ``rows`` ``(M, 3)`` in the set point's frame (same order)."""

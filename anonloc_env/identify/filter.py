@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from anonloc_env import compiled
-from anonloc_env.identify import fused, kernels
+from anonloc_env.identify import fused, fused_calls, kernels
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
 from anonloc_env.identify.camera_pose import Registration, apply
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
@@ -222,6 +222,8 @@ class Identifier:
             if view is not None:  # a track predicted out of view is missed at no cost
                 tracks = view.tracks(tracks, interval, pix_var, radius)
             continued, lost_slot, lost_logw = build.missed(tracks, interval, pix_var, floor)
+            if self.registration is not None:  # the frame moved while they went unseen
+                continued.pos_var = self.registration.unseen(continued.pos_var)
             parts.append(continued)
             add_grouped(unanchored, lost_slot, lost_logw)
         parts.extend(anchored_uniform)
@@ -264,6 +266,32 @@ class Identifier:
             log_rows = float(np.logaddexp.reduce(self.row_bias))
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
+        # The fields are gathered once, in the final order (the same order either way).
+        index = fused_calls.pruned_order(slot, logw, best, self.max_tracks) if self.fast else None
+        if index is None:  # numpy, or a robot the model ruled out
+            index = self._pruned_order(parts, slot, logw, best)
+        tracks = Tracks.gather(parts, index)
+        # Normalise each robot's weights to sum to one.
+        sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
+        sums += np.bincount(
+            tracks.slot, weights=np.exp(tracks.logw - best[tracks.slot]), minlength=self.n
+        )
+        total = best + np.log(sums)
+        tracks.logw = tracks.logw - total[tracks.slot]
+        self.uniform = self.uniform - total
+        self.unanchored = self.unanchored - total
+        # Implicit weights too small to matter stop costing anything.
+        self.uniform[self.uniform + log_rows < -PRUNE_NATS] = -np.inf
+        self.unanchored[self.unanchored < -PRUNE_NATS] = -np.inf
+        self.tracks = tracks
+
+    def _pruned_order(
+        self, parts: list[Tracks], slot: np.ndarray, logw: np.ndarray, best: np.ndarray
+    ) -> np.ndarray:
+        """Which tracks ``slot``, ``logw`` (``parts`` one after the other) stay, in their final
+        order: each robot's best (``best``, raised in place) less :data:`PRUNE_NATS` at most,
+        sorted by robot, heaviest first, at most ``max_tracks`` per robot. A robot the model
+        ruled out everywhere starts over (its ``unanchored`` weight reset)."""
         for part in parts:  # np.maximum.at(best, slot, logw), one item per run of a robot
             starts = group_starts(part.slot)
             np.maximum.at(best, part.slot[starts], np.maximum.reduceat(part.logw, starts))
@@ -278,26 +306,12 @@ class Identifier:
         if kept is not None:
             slot, logw = slot[kept], logw[kept]
         # Sort by robot, heaviest first (one key: every kept weight is within PRUNE_NATS of its
-        # robot's best), and cap the number of tracks per robot: keep the heaviest. The fields
-        # are gathered once, in the final order.
+        # robot's best), and cap the number of tracks per robot: keep the heaviest.
         order = np.argsort(slot * (2.0 * PRUNE_NATS + 2.0) + (best[slot] - logw), kind="stable")
         rank = rank_in_group(slot[order])
         if rank.max(initial=0) >= self.max_tracks:
             order = order[rank < self.max_tracks]
-        tracks = Tracks.gather(parts, order if kept is None else kept[order])
-        # Normalise each robot's weights to sum to one.
-        sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
-        sums += np.bincount(
-            tracks.slot, weights=np.exp(tracks.logw - best[tracks.slot]), minlength=self.n
-        )
-        total = best + np.log(sums)
-        tracks.logw = tracks.logw - total[tracks.slot]
-        self.uniform = self.uniform - total
-        self.unanchored = self.unanchored - total
-        # Implicit weights too small to matter stop costing anything.
-        self.uniform[self.uniform + log_rows < -PRUNE_NATS] = -np.inf
-        self.unanchored[self.unanchored < -PRUNE_NATS] = -np.inf
-        self.tracks = tracks
+        return order if kept is None else kept[order]
 
     def _compute_belief(self) -> None:
         """Each robot's total weight and what each track's weight is of it; the ``(R, n)``

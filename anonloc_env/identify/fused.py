@@ -51,14 +51,56 @@ def _stable_order(key: np.ndarray, n: int, order: np.ndarray) -> None:
 
 
 @jit
+def _bucket_order(
+    key: np.ndarray, n: int, base: float, span: float, order: np.ndarray, work: np.ndarray
+) -> None:
+    """:func:`_stable_order` (the same order, ties by index) in about linear time when the keys
+    spread over ``[base, base + span]``: each index placed, in order, into one of ``n`` buckets by
+    its key (a non-decreasing function of the key, so equal keys share a bucket and keep the
+    order of their indices), then an insertion sort that moves only keys strictly greater. A NaN
+    key, or more moves than a few per key (keys bunched in few buckets), falls back to
+    :func:`_stable_order`. ``work``: ``2 n + 1`` integers of scratch."""
+    scale = n / span
+    counts, bucket = work[: n + 1], work[n + 1 : 2 * n + 1]
+    counts[:] = 0
+    for m in range(n):
+        v = (key[m] - base) * scale
+        if v != v:  # NaN
+            _stable_order(key, n, order)
+            return
+        b = n - 1 if v >= n else (int(v) if v > 0.0 else 0)
+        bucket[m] = b
+        counts[b + 1] += 1
+    for b in range(n - 1):
+        counts[b + 1] += counts[b]
+    for m in range(n):
+        b = bucket[m]
+        order[counts[b]] = m
+        counts[b] += 1
+    budget = 8 * n + 64
+    for i in range(1, n):
+        item = order[i]
+        v = key[item]
+        j = i
+        while j > 0 and key[order[j - 1]] > v:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = item
+        budget -= i - j
+        if budget < 0:  # bunched: the general sort
+            _stable_order(key, n, order)
+            return
+
+
+@jit
 def _first_leg_robot(
     r: int, lo: int, hi: int, leg: Any, found: tuple[np.ndarray, np.ndarray, np.ndarray]
 ) -> tuple[int, float]:
     """Robot ``r`` along the pairs ``by_length[lo:hi]`` of ``leg`` (see :func:`first_leg`): the
     gate, the heading Kalman step and the detected heading of ``kernels._first_leg_block``.
-    Writes the pair, log weight and heading (before its wrap) of each candidate that passes
-    into ``found``; returns how many passed and the best log weight."""
-    by_length, per_robot, frames, per_pair, adds, motion, numbers = leg
+    Writes the row (of ``by_length``), log weight and heading (before its wrap) of each
+    candidate that passes into ``found``; returns how many passed and the best log weight."""
+    by_length, per_robot, frames, per_pair, adds, motion, numbers, _ = leg
     s, scale, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
     pick, logw, theta = found
     dx, dy, dphi = motion[0, r], motion[1, r], motion[2, r]
@@ -94,32 +136,36 @@ def _first_leg_robot(
 
 @jit
 def first_leg(
-    cuts: np.ndarray, robots: np.ndarray, start: np.ndarray, counts: np.ndarray, leg: Any
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``kernels._first_leg_block`` over every block ``cuts[b]:cuts[b + 1]`` of robots:
-    ``(slot, pair, log weight, heading)`` of what is kept, heaviest first within each robot
-    (ties in the order of the candidates).
+    cuts: np.ndarray,
+    robots: np.ndarray,
+    start: np.ndarray,
+    counts: np.ndarray,
+    leg: Any,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> int:
+    """``kernels._first_leg_block`` over every block ``cuts[b]:cuts[b + 1]`` of robots, and
+    the tracks ``kernels.first_leg`` builds of what is kept, heaviest first within each robot
+    (ties in the order of the candidates): written into ``out`` = ``(slot, row, pos, logw,
+    theta, p_tt)`` (each ``counts.sum()`` long at least, ``pos`` ``(., 2)``); returns how many.
 
-    ``leg`` is ``(by_length, per_robot, frames, per_pair, adds, motion, numbers)``: robot
-    ``robots[k]``'s candidates are the pairs ``by_length[start[k]:start[k] + counts[k]]``;
-    ``per_robot`` ``(10, n)``: the fields of ``kernels._Robots`` in their order; ``frames``
-    ``(5, pairs)``: those of ``kernels._Frames`` in the order of ``by_length`` (so that each
-    robot reads a run); ``per_pair`` ``(2, pairs)``, in that order too: what the links and
-    the row bias add to a pair's weight, added in that order where ``adds`` says; ``motion``
-    ``(3, n)``: the interval's ``dx``, ``dy`` and ``dphi``; ``numbers``: the scale a track
-    holds, the model's scale, the detected heading's variance, the gate's chi-square and the
-    prune's nats."""
-    nats = leg[6][4]
-    total = counts.sum()
+    ``leg`` is ``(by_length, per_robot, frames, per_pair, adds, motion, numbers, rows)``: robot
+    ``robots[k]``'s candidates are the pairs ``start[k]:start[k] + counts[k]`` of the pairs
+    sorted by length, whose rows in the new picture ``rows`` ``(n_rows, 3)`` are
+    ``by_length``; ``per_robot`` ``(11, n)``: the fields of ``kernels._Robots`` in their order,
+    then the heading variance a track keeps; ``frames`` ``(5, pairs)``: those of
+    ``kernels._Frames`` in the sorted order (so that each robot reads a run); ``per_pair``
+    ``(2, pairs)``, in that order too: what the links and the row bias add to a pair's weight,
+    added in that order where ``adds`` says; ``motion`` ``(3, n)``: the interval's ``dx``,
+    ``dy`` and ``dphi``; ``numbers``: the scale a track holds, the model's scale, the detected
+    heading's variance, the gate's chi-square and the prune's nats."""
+    nats, per_robot, rows = leg[6][4], leg[1], leg[7]
+    out_slot, out_row, out_pos, out_logw, out_theta, out_ptt = out
     widest = counts.max() if len(counts) else 0
-    out_slot = np.empty(total, dtype=np.int64)
-    out_pick = np.empty(total, dtype=np.int64)
-    out_logw = np.empty(total)
-    out_theta = np.empty(total)
     found = (np.empty(widest, dtype=np.int64), np.empty(widest), np.empty(widest))
     pick, logw, theta = found
     key = np.empty(widest)
     order = np.empty(widest, dtype=np.int64)
+    work = np.empty(2 * widest + 1, dtype=np.int64)
     step = 2.0 * nats + 2.0
     count = 0
     for b in range(len(cuts) - 1):
@@ -137,13 +183,69 @@ def first_leg(
                     pick[kept], logw[kept], theta[kept] = pick[m], logw[m], theta[m]
                     key[kept] = group * step + (floor + nats - logw[m])
                     kept += 1
-            _stable_order(key, kept, order)
+            _bucket_order(key, kept, group * step, nats, order, work)
             for m in range(kept):
                 q = order[m]
-                out_slot[count], out_pick[count] = r, pick[q]
+                row = pick[q]
+                out_slot[count], out_row[count] = r, row
+                out_pos[count, 0], out_pos[count, 1] = rows[row, 0], rows[row, 1]
                 out_logw[count], out_theta[count] = logw[q], _wrap(theta[q])
+                out_ptt[count] = per_robot[10, r]
                 count += 1
-    return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
+    return count
+
+
+@jit
+def pruned_order(
+    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, nats: float, cap: int
+) -> tuple[np.ndarray, bool]:
+    """``Identifier._normalise_and_prune``'s order (see :mod:`anonloc_env.identify.filter`):
+    each robot's best raised to its tracks' (``best`` ``(R,)``, in place), the tracks ``slot``,
+    ``logw`` ``(H,)`` at most ``nats`` below it kept, sorted by robot and by the key
+    ``slot * (2 nats + 2) + (best - logw)`` (ties by index, as ``np.argsort(kind="stable")``),
+    at most ``cap`` per robot. Returns ``(index, ok)``; ``ok`` False, and ``index`` empty, when
+    a robot's best is not finite (the caller's numpy path starts it over)."""
+    n, h_count = best.shape[0], slot.shape[0]
+    for k in range(h_count):
+        i = slot[k]
+        best[i] = compiled.maximum(best[i], logw[k])
+    for i in range(n):
+        if not np.isfinite(best[i]):
+            return np.empty(0, dtype=np.int64), False
+    # The kept tracks by robot, each robot's in the order of their index (a counting sort).
+    start = np.zeros(n + 1, dtype=np.int64)
+    for k in range(h_count):
+        if logw[k] >= best[slot[k]] - nats:
+            start[slot[k] + 1] += 1
+    widest = 0
+    for i in range(n):
+        widest = max(widest, start[i + 1])
+        start[i + 1] += start[i]
+    index = np.empty(start[n], dtype=np.int64)
+    fill = start[:n].copy()
+    for k in range(h_count):
+        if logw[k] >= best[slot[k]] - nats:
+            index[fill[slot[k]]] = k
+            fill[slot[k]] += 1
+    # Each robot's run sorted by its key (the keys of different robots never overlap), the
+    # first ``cap`` of it moved to the front (over runs already read).
+    step = 2.0 * nats + 2.0
+    key = np.empty(widest)
+    run = np.empty(widest, dtype=np.int64)
+    order = np.empty(widest, dtype=np.int64)
+    work = np.empty(2 * widest + 1, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        lo, size = start[i], start[i + 1] - start[i]
+        for j in range(size):
+            k = index[lo + j]
+            run[j] = k
+            key[j] = slot[k] * step + (best[i] - logw[k])
+        _bucket_order(key, size, i * step, nats, order, work)
+        for j in range(min(size, cap)):
+            index[count] = run[order[j]]
+            count += 1
+    return index[:count], True
 
 
 @jit
@@ -195,12 +297,15 @@ def known_children(
         total += hi[h] - lo[h]
     index = np.empty((2, total), dtype=np.int64)
     out = np.empty((4, total))
+    rho = np.empty(d.shape[0])  # each robot's path, once per robot (not per track)
+    for i in range(d.shape[0]):
+        rho[i] = math.hypot(d[i, 0], d[i, 1])
     k = 0
     for h in range(h_count):
         i = slot_of[h]
         s, th, ptt = _at(scale, h), fields[2, h], fields[3, h]
         d0, d1 = d[i, 0], d[i, 1]
-        rho0 = math.hypot(d0, d1)
+        rho0 = rho[i]
         c, sn = math.cos(th), math.sin(th)
         m0 = s * (c * d0 - sn * d1)
         m1 = s * (sn * d0 + c * d1)
@@ -234,7 +339,7 @@ def known_children(
             out[2, k] = th + ptt * h_e / a + robot[0, i]
             out[3, k] = compiled.maximum(ptt * b / a, 1e-14) + robot[3, i]
             k += 1
-    return index[:, :k].copy(), out[:, :k].copy()
+    return index[:, :k], out[:, :k]  # each row contiguous (callers read rows)
 
 
 @jit
@@ -391,14 +496,19 @@ def load() -> None:
     compiled.leave_out_sums(np.ones((1, 1, 1)), 1.0, np.ones(2))
     one, two = np.zeros(1, dtype=np.int64), np.array([0, 1], dtype=np.int64)
     ones = np.ones
-    leg = (one, ones((10, 1)), ones((5, 1)), ones((2, 1)), (True, True), ones((3, 1)), ones(5))
-    first_leg(two, one, one, one + 1, leg)
+    leg = (
+        one, ones((11, 1)), ones((5, 1)), ones((2, 1)), (True, True), ones((3, 1)), ones(5),
+        ones((1, 3)),
+    )  # fmt: skip
+    floats = ones(1)
+    first_leg(two, one, one, one + 1, leg, (one, one, ones((1, 2)), floats, floats, floats))
     known_children(
         np.array([[0], [0], [1]]), ones((4, 1)), ones(1), ones(1), ones((4, 1)), ones((1, 2)),
         one, ones((1, 3)), ones(4), True,
     )  # fmt: skip
     finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
     general_kalman(ones((17, 1)), 1.0, 1.0)
+    pruned_order(one, ones(1), ones(1), 30.0, 8)
     fields = (ones(1), ones(1), ones(1), ones(1), ones(1))
     general_inputs(
         one,

@@ -17,7 +17,13 @@ import numpy as np
 from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import fused
-from anonloc_env.identify.arrays import group_sizes, group_starts, is_shared, take_field
+from anonloc_env.identify.arrays import (
+    group_sizes,
+    group_starts,
+    is_shared,
+    positions,
+    take_field,
+)
 from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, worst_variance
 from anonloc_env.identify.likelihood import (
@@ -93,7 +99,7 @@ def general_step(
             assert isinstance(interval, PressedInterval)
             assert interval.narrow is not None
             cov = push_covariance(interval.narrow, model)[slot[tail]]
-            x = x[:, tail]
+            x = np.ascontiguousarray(x[:, tail])  # C order, the one compiled at load()
             x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
             narrow = fused.general_kalman(x, pix_var, model.scale_spread)
             narrow_ll = -LOG_2PI - 0.5 * np.log(narrow[0]) - 0.5 * narrow[1]
@@ -139,6 +145,23 @@ def renumbered(
     mine = place[a]
     keep = np.flatnonzero(mine >= 0)
     return mine[keep], b[keep]
+
+
+def pruned_order(
+    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, cap: int
+) -> np.ndarray | None:
+    """The identifier's pruned and sorted order of the tracks ``slot``, ``logw`` by
+    :func:`anonloc_env.identify.fused.pruned_order` (the order of
+    ``Identifier._pruned_order``, without its temporaries), ``best`` raised in place; None
+    where the kernels are off, or a robot's best is not finite (``best`` then untouched)."""
+    if compiled.mode() is None:
+        return None
+    raised = best.copy()
+    index, ok = fused.pruned_order(slot.astype(np.int64, copy=False), logw, raised, PRUNE_NATS, cap)
+    if not ok:
+        return None
+    best[:] = raised
+    return index
 
 
 def merge_by_robot(first: Tracks, second: Tracks) -> Tracks:
@@ -243,7 +266,7 @@ def _finish_compiled(
     return Tracks.fresh(
         slot[keep],
         c,
-        rows[c, :2],
+        positions(rows, c),
         logw[keep],
         pos_var=pix_var,
         theta=wrap_angle(theta[keep]),

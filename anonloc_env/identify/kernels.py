@@ -22,7 +22,14 @@ import numpy as np
 from anonloc_env import compiled
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import fused, fused_calls
-from anonloc_env.identify.arrays import group_sizes, group_starts, near_best, take_field
+from anonloc_env.identify.arrays import (
+    columns,
+    group_sizes,
+    group_starts,
+    near_best,
+    positions,
+    take_field,
+)
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, Gate, worst_variance
 from anonloc_env.identify.likelihood import (
     Child,
@@ -129,20 +136,15 @@ def first_leg(
     cuts = np.concatenate([[0], cuts, [len(robots)]])  # sorted: drop repeats without
     cuts = cuts[np.flatnonzero(np.diff(cuts, prepend=-1))]  # np.unique (it imports numpy.ma)
     leg = _Leg(cuts, robots, start, counts, by_length, s, per_robot, frames, pairs, prior, scoring)
+    p_tt = per_robot.p_tt1 * (1 - per_robot.gain)  # what each robot's tracks keep
     if compiled.mode() is not None:  # the same floats in one call
-        slot, pick, logw, theta = _first_leg_compiled(leg)
+        slot, row, pos, logw, theta, p_tt = _first_leg_compiled(leg, p_tt)
     else:
         slot, pick, logw, theta = _first_leg_blocks(leg)
-    row = j_pair[pick]
+        row = j_pair[pick]
+        pos, p_tt = positions(rows, row), p_tt[slot]
     return Tracks.fresh(
-        slot,
-        row,
-        rows[row, :2],
-        logw,
-        pos_var=pairs.pix_var,
-        theta=theta,
-        p_tt=(per_robot.p_tt1 * (1 - per_robot.gain))[slot],
-        log_s=math.log(s),
+        slot, row, pos, logw, pos_var=pairs.pix_var, theta=theta, p_tt=p_tt, log_s=math.log(s)
     )
 
 
@@ -187,9 +189,10 @@ def _first_leg_blocks(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
 
 
-def _first_leg_compiled(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_first_leg_blocks` by :func:`anonloc_env.identify.fused.first_leg` (the same
-    floats)."""
+def _first_leg_compiled(leg: _Leg, p_tt: np.ndarray) -> tuple[np.ndarray, ...]:
+    """:func:`_first_leg_blocks` and the tracks' rows, positions and heading variances (``p_tt``
+    of each robot) by :func:`anonloc_env.identify.fused.first_leg` (the same floats), written
+    into one allocation: ``(slot, row, pos, logw, theta, p_tt)``."""
     pairs, prior, by_length = leg.pairs, leg.prior, leg.by_length
     per_pair = np.zeros((2, len(pairs.i_pair)))
     if prior.links is not None:  # for every pair, added as _first_leg_block adds it
@@ -200,21 +203,26 @@ def _first_leg_compiled(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     model_scale = leg.scoring.model.scale
     assert model_scale is not None
     numbers = [leg.s, model_scale, leg.scoring.theta_var, GATE_CHI2, PRUNE_NATS]
-    return fused.first_leg(
+    total = int(leg.counts.sum())
+    out = columns(total, [(np.int64, 0), (np.int64, 0), (np.float64, 2)] + [(np.float64, 0)] * 3)
+    count = fused.first_leg(
         leg.cuts,
         leg.robots.astype(np.int64),
         leg.start.astype(np.int64),
         leg.counts.astype(np.int64),
         (
-            by_length.astype(np.int64),
-            np.array(leg.per_robot),
+            pairs.j_pair[by_length].astype(np.int64),
+            np.vstack([np.array(leg.per_robot), p_tt]),
             np.array(leg.frames).take(by_length, axis=1),  # C order, as the kernel is compiled
             per_pair.take(by_length, axis=1),
             (prior.links is not None, prior.row_bias is not None),
             np.stack([d[:, 0], d[:, 1], dphi]),
             np.array(numbers, dtype=np.float64),
+            np.ascontiguousarray(pairs.rows, dtype=np.float64),
         ),
+        tuple(out),
     )
+    return tuple(a[:count] for a in out)
 
 
 def _robot_terms(s: float, pairs: Pairs, prior: Prior, scoring: Scoring) -> _Robots:

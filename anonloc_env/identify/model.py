@@ -11,7 +11,7 @@ import numpy as np
 
 from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
-from anonloc_env.config import CameraConfig, EnvConfig
+from anonloc_env.config import EnvConfig
 from anonloc_env.identify.camera_pose import (
     RegistrationPrior,
     registered_pixel_noise,
@@ -157,6 +157,11 @@ class SensorModel:
         its 20.8 to 22.07 range); its spread across the arena becomes ``scale_spread`` (see
         :func:`anonloc_env.camera.survey`). With ``scale_known=False`` the scale is left to
         be estimated within 0.5x to 2x of it.
+
+        The camera's errors are read as ``config.camera`` states them; nothing is rendered or
+        measured here. For the image source, whose own errors the nominal fields do not describe,
+        pass the config the env holds (``env.config``) or
+        :func:`anonloc_env.detection.stated_config` of it: it states the measured errors.
         """
         return _from_config(config, scale_known)
 
@@ -174,7 +179,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     camera = survey(config)
     mean = camera.scale
     u_min, v_min, u_max, v_max = camera.field_of_view
-    cam = _camera_section(config)
+    cam = config.camera
     clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
     area = config.arena_size[0] * config.arena_size[1]
     registration = registration_prior(config, cam.pixel_noise)
@@ -203,16 +208,6 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         registration=registration,
         view=None if registration is None else camera_view(config, registration.absolute[2]),
     )
-
-
-def _camera_section(config: EnvConfig) -> CameraConfig:
-    """The camera section that describes the pictures: the config's own, or for the image
-    source the image path's measured errors (the image path is imported only then)."""
-    if config.camera.source != "image":
-        return config.camera
-    from anonloc_env.images.errors import effective_camera  # the image path, on demand
-
-    return effective_camera(config)
 
 
 #: What contacts move a robot unseen is far below its bound (``push_bound``): measured against

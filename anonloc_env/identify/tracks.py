@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from anonloc_env.geometry import rotate
-from anonloc_env.identify.arrays import alike, shared, take_field
+from anonloc_env.identify.arrays import alike, columns, shared, take_field
 from anonloc_env.neighbours import expand_ranges
 from anonloc_env.odometry import Interval
 
@@ -148,20 +148,19 @@ class Tracks:
         if len(index) == bounds[-1] and len(parts) == 1 and _is_identity(index):
             return parts[0]
         runs, where, local = _plan(bounds, index)
-        out = []
-        for f in FIELDS:
-            arrays = [getattr(p, f) for p in parts]
-            same = alike(arrays, len(index))
-            if same is not None:
-                out.append(same)
-                continue
-            into = np.empty((len(index), *arrays[0].shape[1:]), np.result_type(*arrays))
+        every = [[getattr(p, f) for p in parts] for f in FIELDS]
+        same = [alike(arrays, len(index)) for arrays in every]
+        out = [np.empty(0) if a is None else a for a in same]
+        written = [f for f, a in enumerate(same) if a is None]
+        kinds = [(np.result_type(*every[f]), _width(every[f][0])) for f in written]
+        for f, into in zip(written, columns(len(index), kinds), strict=True):  # one allocation
+            arrays = every[f]
             for to, k, start, count in runs:
                 into[to : to + count] = arrays[k][start : start + count]
             for w, i, arr in zip(where, local, arrays, strict=True):
                 if len(w):
                     into[w] = arr[i]
-            out.append(into)
+            out[f] = into
         return Tracks(*out)
 
     def __len__(self) -> int:
@@ -170,6 +169,11 @@ class Tracks:
 
 #: The fields of :class:`Tracks`, in order.
 FIELDS = tuple(f.name for f in fields(Tracks))
+
+
+def _width(a: np.ndarray) -> int:
+    """A field's columns: 0 for ``(H,)``, else its second dimension."""
+    return a.shape[1] if a.ndim > 1 else 0
 
 
 def _is_identity(index: np.ndarray) -> bool:

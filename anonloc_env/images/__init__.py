@@ -10,8 +10,9 @@ pattern. This package recreates that platform with OpenCV's ArUco markers:
   ``(u, v, theta)`` in image units;
 * :class:`ImageCamera`: both behind the :class:`~anonloc_env.camera.DetectionSource` interface
   (the env uses it with ``camera={"source": "image"}``);
-* :func:`effective_camera`: the camera section with the image path's measured errors, which the
-  sensor model localizers build uses;
+* :func:`effective_camera`: the camera section with the image path's measured errors, and
+  :func:`calibrated`, the config with it (the env takes this step for its image source, so that
+  the sensor model localizers build from ``env.config`` describes the pictures);
 * :func:`landmark_pose`: a picture's homography from the ground landmarks it shows;
 * :func:`calibrate`: the camera homography estimated from robots driving known paths.
 
@@ -25,6 +26,7 @@ from anonloc_env.images.detector import MarkerDetector
 from anonloc_env.images.errors import (
     ErrorSample,
     ImageErrors,
+    calibrated,
     effective_camera,
     measured_errors,
     sample_errors,
@@ -43,6 +45,7 @@ __all__ = [
     "MarkerDetector",
     "PixelFrame",
     "calibrate",
+    "calibrated",
     "effective_camera",
     "estimate_homography",
     "landmark_pose",
