@@ -188,29 +188,22 @@ def test_registration_without_landmarks_follows_the_camera() -> None:
     assert max(registered_moves[1:]) < 1.0
 
 
-def test_registration_error_says_how_far_off_each_picture_is() -> None:
-    """Seeded: 25 robots driving (random commands, 1 px of noise) under the hovering camera.
-    The registration's own error, which the identifier adds to each picture's pixel noise, is
-    of the right size: over 60 pictures the root mean square of the registered displacements'
-    true error (noise-free rows: the change of the registration against the camera's change)
-    within 0.7 to 1.4 times that of the stated errors (1.02 measured)."""
-    config = anonloc_env.make_config(
-        "drone-hover",
-        n_robots=25,
-        arena_size=(5.0, 5.0),
-        camera={"orientation": False},
-        max_cycles=1300,
-    )
+def _registration_errors(
+    config: anonloc_env.EnvConfig, seed: int, pictures: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Robots driving on random commands under ``config``'s moving camera, registered picture by
+    picture: each picture's stated error squared and its true one (the mean square change of the
+    noise-free rows' registration against the camera's change), from the second interval on."""
     prior = registration_prior(config)
     assert prior is not None
     registration = Registration(prior, orientation=False)
     env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
-    env.reset(seed=5)
-    rng = np.random.default_rng(5)
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
     fixed = Camera(config)
     stated, actual = [], []
     previous = None
-    for _ in range(60):
+    for _ in range(pictures):
         commands = rng.uniform([0.2, -0.5], [0.6, 0.5], size=(len(env.agents), 2))
         for _ in range(int(config.schedule.picture_interval / config.dt)):
             env.step({a: c.astype(np.float32) for a, c in zip(env.agents, commands, strict=True)})
@@ -228,8 +221,47 @@ def test_registration_error_says_how_far_off_each_picture_is() -> None:
             actual.append(float(np.mean(change**2)))
             stated.append(registration.error**2)
         previous = now
-    ratio = math.sqrt(np.mean(actual[1:]) / np.mean(stated[1:]))
+    return np.array(stated[1:]), np.array(actual[1:])
+
+
+def test_registration_error_says_how_far_off_each_picture_is() -> None:
+    """Seeded: 25 robots driving (random commands, 1 px of noise) under the hovering camera.
+    The registration's own error, which the identifier adds to each picture's pixel noise, is
+    of the right size: over 60 pictures the root mean square of the registered displacements'
+    true error (noise-free rows: the change of the registration against the camera's change)
+    within 0.7 to 1.4 times that of the stated errors (0.83 measured; 0.97 before the stated
+    error took the two guesses' disagreement)."""
+    config = anonloc_env.make_config(
+        "drone-hover",
+        n_robots=25,
+        arena_size=(5.0, 5.0),
+        camera={"orientation": False},
+        max_cycles=1300,
+    )
+    stated, actual = _registration_errors(config, 5, 60)
+    ratio = math.sqrt(np.mean(actual) / np.mean(stated))
     assert 0.7 < ratio < 1.4, ratio
+
+
+def test_registration_error_has_no_heavy_tail_in_wind() -> None:
+    """Seeded: 10 robots at 1 per m^2 driving on random commands under ``drone-windy``, 4
+    episodes of 30 pictures. A picture's true error is more than 2.15 times the stated one (a
+    calibrated Gaussian's 99th percentile for this measure) in at most 3 % of them (2 of 112
+    measured; 5 of 112, and 5.7 times at the 99th percentile, before the stated error took
+    the disagreement between the registrations under the two guesses of the robots'
+    motion)."""
+    config = anonloc_env.make_config(
+        "drone-windy",
+        n_robots=10,
+        arena_size=(math.sqrt(10), math.sqrt(10)),
+        camera={"orientation": False},
+        max_cycles=1300,
+    )
+    runs = [_registration_errors(config, seed, 30) for seed in range(4)]
+    stated = np.concatenate([r[0] for r in runs])
+    actual = np.concatenate([r[1] for r in runs])
+    assert len(stated) == 112
+    assert float(np.mean(actual > 2.15**2 * stated)) <= 0.03
 
 
 def test_a_few_robots_that_agree_by_chance_do_not_make_the_registration_sure() -> None:

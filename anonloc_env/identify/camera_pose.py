@@ -33,7 +33,10 @@ unknown to the others but bounded and of zero mean over many robots. So, at each
 
 Its error is what the robots' unknown displacements leave: the fit's posterior spread, at each
 picture, from its own residuals, widened by the measured :data:`ERROR_FACTOR`
-(``Registration.error``). The identifier adds it to that
+(``Registration.error``), plus what the guess of the robots' motion may have put in the fit
+unseen by its residuals: the picture is registered again under the guess that no robot kept its
+heading, and the two transforms' mean square disagreement over the rows, beyond what the second
+fit's larger error explains, is added to its variance. The identifier adds it to that
 picture's pixel noise (``Registration.pixel_var``), so that a picture registered badly (few
 robots in view, scattered displacements) weighs less; the sensor model's nominal figure
 (:func:`registered_pixel_noise`, what the agent's candidate predictions and the corrected
@@ -260,13 +263,13 @@ class Registration:
             self._remember(registered, None)
             return registered
         guess = self._predicted()
-        transform = self.transform.copy()
-        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
-        pairs = None
-        scales: list[float | None] = [None, None]
-        for _ in range(2):
-            pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
-            transform, self.error, scales = self._fit(rows[:, :2], pairs, guess, transform)
+        transform, pairs, self.error, scales = self._registered(rows, guess)
+        if guess[2].any():  # robots kept a heading: how far the guess that they did not moves it
+            still, _, still_error, _ = self._registered(rows, self._still())
+            gap = apply(transform, self.prior.centre, rows[:, :2])
+            gap -= apply(still, self.prior.centre, rows[:, :2])
+            expected = max(still_error**2 - self.error**2, 0.0)
+            self.error = math.sqrt(self.error**2 + max(float(np.mean(gap**2)) - expected, 0.0))
         self.transform = transform
         for k, scale in enumerate(scales):
             old = self._scales[k]
@@ -276,6 +279,30 @@ class Registration:
         registered = apply(transform, self.prior.centre, rows)
         self._remember(registered, pairs)
         return registered
+
+    def _registered(
+        self, rows: np.ndarray, guess: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], float, list[float | None]]:
+        """The transform of ``rows`` to the previous rows' places ``guess`` (coarse shift, then
+        matched and fitted twice), its pairs, its stated error and its robust scales."""
+        transform = self.transform.copy()
+        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
+        pairs = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+        error = 0.0
+        scales: list[float | None] = [None, None]
+        for _ in range(2):
+            pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
+            transform, error, scales = self._fit(rows[:, :2], pairs, guess, transform)
+        return transform, pairs, error, scales
+
+    def _still(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The guess that no robot kept its heading: each previous row's robot moves the team's
+        typical step in any direction (what :meth:`_predicted` guesses for those without one)."""
+        assert self._previous is not None
+        assert self._step is not None
+        count = len(self._previous)
+        spread = max(self._step / math.sqrt(2.0), _residual_floor(self.prior))
+        return self._previous.copy(), np.full(count, spread), np.zeros(count, bool)
 
     def _predicted(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Where each previous row's robot should be now, the spread of that guess (image units,
