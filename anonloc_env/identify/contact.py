@@ -19,7 +19,7 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   ``push_share``. A slide then informs the heading little (the Kalman gain along the robot's
   side, which is where a heading error shows, is small), and the position still counts.
 * But its likelihood mixes those wide pushes (weight
-  :attr:`~anonloc_env.identify.SensorModel.crowd_push_tail`, 0.1) with a bump's narrow ones
+  :attr:`~anonloc_env.identify.SensorModel.crowd_push_tail`, 0.05) with a bump's narrow ones
   (:func:`mix_pushes`): most slides are short, and with the wide pushes alone a neighbour pressed
   against the robot fitted almost as well as its own row, so decided robots went undecided
   whenever they were pressed. A *jammed* robot, pushed more than
@@ -51,7 +51,7 @@ from anonloc_env.odometry import Interval
 CROWD_PUSH_SHARE = 1.0
 #: The weight of that wide push in a pressed robot's likelihood (see :func:`mix_pushes`); the
 #: rest has the pushes of a robot that bumps once (``push_share``).
-CROWD_PUSH_TAIL = 0.1
+CROWD_PUSH_TAIL = 0.05
 #: A robot pushed more intervals in a row than this is *jammed*: its likelihood keeps the wide
 #: pushes alone (see :func:`mix_pushes`).
 JAM = 10
@@ -64,13 +64,15 @@ CONTACT_BREAK = 100.0
 def break_length(density: float) -> float:
     """The contact bound (m) over which a pressed robot's track breaks with probability
     ``1 - 1/e`` among ``density`` robots per m^2: :data:`CONTACT_BREAK` up to one robot per m^2,
-    shorter in proportion to the density above it (a pressed robot has that many more neighbours
-    to be mixed up with). Robots jammed together for tens of intervals at 4 and 6 per m^2 were
-    taken for one another, or for a far robot jammed the same way once their own track had been
-    pruned, at ``CONTACT_BREAK`` (``docs/crowds.md``)."""
+    shorter by the square root of the density above it (a pressed robot has more neighbours to be
+    mixed up with). Robots jammed together for tens of intervals at 4 and 6 per m^2 were taken
+    for one another, or for a far robot jammed the same way once their own track had been
+    pruned, at ``CONTACT_BREAK``; at ``CONTACT_BREAK / density`` (the fourth round) a break cost
+    every pressed robot at 4 per m^2 up to 1.6 % of its belief per interval, so decided robots
+    went undecided whenever they were pressed (``docs/crowds.md``, fifth round)."""
     if not density > 0.0:
         raise ValueError(f"density must be > 0 robots per m^2, got {density}")
-    return CONTACT_BREAK / max(1.0, density)
+    return CONTACT_BREAK / math.sqrt(max(1.0, density))
 
 
 @dataclasses.dataclass(frozen=True)
