@@ -119,13 +119,19 @@ VALIDATION_ROBOTS = 14
 VALIDATION_SEEDS = 900_000
 
 
+#: Robots per square metre of the crowded validation condition (the crowds of
+#: ``benchmarks/agent_conditions.py`` and ``docs/crowds.md``).
+VALIDATION_CROWD_DENSITY = 4.0
+
+
 def validation_scenario(
-    condition: str = "free", budget: float = 0.2, pictures: int = 20
+    condition: str = "free", budget: float = 0.2, pictures: int = 20, density: float = 1.0
 ) -> Scenario:
     """The validation condition of training runs and searches: :data:`VALIDATION_ROBOTS` robots
-    at one per square metre, 1 px of noise, no headings, ``pictures`` pictures, in
-    ``condition`` (``free`` or ``swarm`` with deviation ``budget``)."""
-    side = VALIDATION_ROBOTS**0.5
+    at ``density`` robots per square metre (one; :data:`VALIDATION_CROWD_DENSITY` for the
+    crowded one), 1 px of noise, no headings, ``pictures`` pictures, in ``condition`` (``free``
+    or ``swarm`` with deviation ``budget``)."""
+    side = (VALIDATION_ROBOTS / density) ** 0.5
     config = anonloc_env.make_config(
         n_robots=VALIDATION_ROBOTS,
         arena_size=(side, side),

@@ -18,7 +18,7 @@ import numpy as np
 
 import anonloc_env
 import baselines
-from agents.conditions import VALIDATION_SEEDS, validation_scenario
+from agents.conditions import VALIDATION_CROWD_DENSITY, VALIDATION_SEEDS, validation_scenario
 from agents.spec import on_duty
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
@@ -86,22 +86,28 @@ def validate_against_uniform(
     episodes: int,
     pictures: int,
     ablation: Callable[[], Excitation] = UniformChoice,
+    crowd: bool = False,
 ) -> dict[str, Validation]:
     """``make()``'s excitation against ``ablation()`` (default ``uniform``, its no-learning
     ablation; ``uniform-rest`` for an agent that rests) on the validation condition
     (:func:`agents.conditions.validation_scenario`, seeds from
     :data:`agents.conditions.VALIDATION_SEEDS`), in free motion and on swarm duty (keys
-    ``free`` and ``swarm``), ``episodes`` episodes of ``pictures`` pictures each."""
+    ``free`` and ``swarm``) and, with ``crowd``, in free motion at
+    :data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m² (key ``crowd``),
+    ``episodes`` episodes of ``pictures`` pictures each."""
     seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
     out = {}
-    for condition in ("free", "swarm"):
-        scenario = validation_scenario(condition, pictures=pictures)
+    where = [("free", "free", 1.0), ("swarm", "swarm", 1.0)]
+    if crowd:
+        where.append(("crowd", "free", VALIDATION_CROWD_DENSITY))
+    for key, condition, density in where:
+        scenario = validation_scenario(condition, pictures=pictures, density=density)
         mine, chance = (
             np.array([censored(r, pictures) for r in play(
                 scenario.config, condition, scenario.budget, maker, seeds, pictures)])
             for maker in (make, ablation)
         )  # fmt: skip
-        out[condition] = Validation(
+        out[key] = Validation(
             paired_ratio(mine[:, 0], chance[:, 0]),
             paired_ratio(mine[:, 1], chance[:, 1]),
             float(mine[:, 0].mean()),

@@ -117,14 +117,19 @@ class SearchConfig:
     validate_every: int = 2
     """Generations between two validations of ``mu`` against ``uniform``, >= 1."""
     validation_episodes: int = 30
-    """Episodes of each validation condition (free and swarm), >= 2."""
+    """Episodes of each validation condition (free, swarm, and crowd with ``crowd``), >= 2."""
     seed: int = 0
     """Seeds the scenarios, the draws and the episodes."""
     minutes: float = 60.0
     """Wall-clock budget (min): no generation starts after it."""
     crowd: bool = False
     """Whether the scorer sees the crowd features (``agents.crowd_features``) and has their
-    terms (:data:`agents.linear_terms.CROWD_TERMS`, 28, against 18 without)."""
+    terms (:data:`agents.linear_terms.CROWD_TERMS`, 28, against 18 without); its validation
+    then adds a crowd (4 robots per m², key ``crowd``)."""
+    crowd_only: bool = False
+    """With ``crowd``: the search moves only the terms gated by ``crowding`` (the others stay
+    zero), so that the agent is ``uniform`` (``uniform-rest`` with ``rest``) where no robot is
+    near it and learns only where robots jostle."""
     rest: float | None = None
     """The belief at which a robot holds still until the next picture, in (0.5, 1]
     (``baselines.excitations.rest.RestWhenSure``): every member and the baseline rest, so the
@@ -148,6 +153,8 @@ class SearchConfig:
         check_number("minutes", self.minutes, 0.0, 1e6)
         if self.rest is not None:
             check_number("rest", self.rest, 0.5, 1.0, low_open=True)
+        if self.crowd_only and not self.crowd:
+            raise ValueError("crowd_only needs crowd (the crowd features and their terms)")
 
 
 def chooser(
@@ -156,6 +163,15 @@ def chooser(
     """A maker of the linear scorer of ``spec`` with ``weights`` (zeros: ``uniform``), at rest
     once its belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
     return lambda: at_rest(LinearChooser(weights, spec), rest)
+
+
+def moved_terms(config: SearchConfig) -> np.ndarray:
+    """``(T,)`` 1 for each term the search moves, 0 for those it keeps at zero
+    (:attr:`SearchConfig.crowd_only`)."""
+    terms = search_spec(config).terms
+    if not config.crowd_only:
+        return np.ones(len(terms))
+    return np.array([t.name.endswith("*crowding") for t in terms], np.float64)
 
 
 def search_spec(config: SearchConfig) -> AgentSpec:
@@ -213,16 +229,18 @@ def validate(
     pictures: int,
     rest: float | None = None,
     spec: AgentSpec = LINEAR_SPEC,
+    crowd: bool = False,
 ) -> dict[str, float]:
     """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
     ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
-    in free motion and on swarm duty: the picture and energy ratios with paired 95 % intervals
-    (keys ``free_pictures``, ``free_pictures_low``, ... ``swarm_energy_high``) and the censored
-    mean pictures of both."""
+    in free motion and on swarm duty (and, with ``crowd``, in a crowd of 4 robots per m²): the
+    picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
+    ``free_pictures_low``, ... ``swarm_energy_high``, ``crowd_...``) and the censored mean
+    pictures of both; ``weights`` of ``spec``'s terms."""
     out: dict[str, float] = {}
     ablation = chooser(np.zeros(len(spec.terms)), rest, spec)
     validations = validate_against_uniform(
-        chooser(weights, rest, spec), episodes, pictures, ablation
+        chooser(weights, rest, spec), episodes, pictures, ablation, crowd
     )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
@@ -270,7 +288,7 @@ def step(state: SearchState, config: SearchConfig, log: Callable[[dict[str, Any]
     start = time.perf_counter()
     rng = np.random.default_rng([config.seed, state.generation, 0xD4A3])
     mu = np.asarray(state.mu)
-    noise = rng.standard_normal((config.pairs, len(mu)))
+    noise = rng.standard_normal((config.pairs, len(mu))) * moved_terms(config)
     members = np.vstack([mu, mu + config.std * noise, mu - config.std * noise])
     cost, ratios, decisions = costs(members, generation_scenarios(config, state.generation), config)
     ranks = centered_ranks(cost[1:])
@@ -363,6 +381,7 @@ def search(
                 config.pictures,
                 config.rest,
                 search_spec(config),
+                config.crowd,
             )
         step(state, config, row.update)
         history.append({"generation": state.generation - 1, **row})
@@ -376,6 +395,7 @@ def search(
             config.pictures,
             config.rest,
             search_spec(config),
+            config.crowd,
         )
         history.append({"generation": state.generation, **final})
         save()
@@ -402,6 +422,7 @@ def _summary(row: dict[str, Any]) -> str:
         text += "; validation " + ", ".join(
             f"{c} {row[c + '_pictures']:.3f}x [{row[c + '_pictures_low']:.2f}, "
             f"{row[c + '_pictures_high']:.2f}] pictures, {row[c + '_energy']:.3f}x energy"
-            for c in ("free", "swarm")
+            for c in ("free", "swarm", "crowd")
+            if c + "_pictures" in row
         )
     return text
