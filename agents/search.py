@@ -167,7 +167,7 @@ def chooser(
 
 def moved_terms(config: SearchConfig) -> np.ndarray:
     """``(T,)`` 1 for each term the search moves, 0 for those it keeps at zero
-    (:attr:`SearchConfig.crowd_only`)."""
+    (``SearchConfig.crowd_only``)."""
     terms = search_spec(config).terms
     if not config.crowd_only:
         return np.ones(len(terms))
