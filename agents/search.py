@@ -368,6 +368,13 @@ def search(
         write_text_atomic(path, json.dumps(data, indent=1))
         _write_progress(directory, history)
 
+    def validate_mu() -> dict[str, float]:
+        spec = search_spec(config)
+        mu = np.asarray(state.mu)
+        return validate(
+            mu, config.validation_episodes, config.pictures, config.rest, spec, config.crowd
+        )
+
     started = time.perf_counter()
     while state.generation < config.generations:
         if (time.perf_counter() - started) / 60.0 > config.minutes:
@@ -375,29 +382,14 @@ def search(
             break
         row: dict[str, Any] = {}
         if state.generation % config.validate_every == 0:
-            row |= validate(
-                np.asarray(state.mu),
-                config.validation_episodes,
-                config.pictures,
-                config.rest,
-                search_spec(config),
-                config.crowd,
-            )
+            row |= validate_mu()
         step(state, config, row.update)
         history.append({"generation": state.generation - 1, **row})
         save()
         log(_summary(history[-1]))
     last = history[-1] if history else {}
     if not (last.get("generation") == state.generation and "free_pictures" in last):
-        final = validate(
-            np.asarray(state.mu),
-            config.validation_episodes,
-            config.pictures,
-            config.rest,
-            search_spec(config),
-            config.crowd,
-        )
-        history.append({"generation": state.generation, **final})
+        history.append({"generation": state.generation, **validate_mu()})
         save()
         log(_summary(history[-1]))
     mu = np.asarray(state.mu)

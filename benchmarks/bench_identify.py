@@ -9,7 +9,7 @@ picture are reported; the worst picture also in CPU time (the process's own, whi
 processes on shared cores do not inflate). The first picture is not counted (nothing to
 update yet; building the identifier, and loading its compiled kernels, happens there).
 
-Usage: ``python benchmarks/bench_identify.py [--pictures K] [--sizes 10,100,1000]``
+Usage: ``python benchmarks/bench_identify.py [--pictures K] [--sizes 10,100,1000] [--seeds 0,1]``
 """
 
 from __future__ import annotations
@@ -76,16 +76,18 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--pictures", type=int, default=10)
     parser.add_argument("--sizes", default="10,100,1000")
+    parser.add_argument("--seeds", default="0", help="episodes, one row each (e.g. 0,1,2,3)")
     args = parser.parse_args(argv)
     print(
-        "| N | bayes median (ms) | bayes worst (ms) | bayes worst, CPU time (ms) |"
+        "| N | seed | bayes median (ms) | bayes worst (ms) | bayes worst, CPU time (ms) |"
         " motion median (ms) | bayes / motion | correct at last picture |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|")
-    for n in (int(x) for x in args.sizes.split(",")):
-        m = measure(n, args.pictures)
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    seeds = [int(x) for x in args.seeds.split(",")]
+    for n, seed in ((int(x), seed) for x in args.sizes.split(",") for seed in seeds):
+        m = measure(n, args.pictures, seed)
         print(
-            f"| {n} | {1e3 * m['bayes_median']:.1f} | {1e3 * m['bayes_max']:.1f} | "
+            f"| {n} | {seed} | {1e3 * m['bayes_median']:.1f} | {1e3 * m['bayes_max']:.1f} | "
             f"{1e3 * m['bayes_max_cpu']:.1f} | "
             f"{1e3 * m['motion_median']:.2f} | {m['bayes_median'] / m['motion_median']:.1f} | "
             f"{100 * m['correct_last']:.1f} % |"

@@ -130,29 +130,3 @@ def test_the_flat_observation_refuses_the_crowd_features() -> None:
     env = BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2))  # the dict form takes them
     observations, _ = env.reset(seed=0)
     assert observations[env.possible_agents[0]]["context"].shape == (len(CONTEXT_SPEC) + 2,)
-
-
-def test_a_crowd_only_search_moves_only_the_crowding_terms(tmp_path: Path) -> None:
-    from agents.conditions import ConditionRanges
-    from agents.search import SearchConfig, search
-
-    config = SearchConfig(
-        generations=2,
-        pairs=1,
-        scenarios=1,
-        seeds=1,
-        pictures=4,
-        validate_every=1,
-        validation_episodes=2,
-        crowd=True,
-        crowd_only=True,
-        ranges=ConditionRanges(robots=(3,), pictures=4),
-    )
-    mu = search(config, tmp_path / "run", log=lambda _: None)
-    gated = np.array([t.name.endswith("*crowding") for t in CROWD_TERMS])
-    assert np.all(mu[~gated] == 0.0)
-    assert np.any(mu[gated] != 0.0)
-    progress = (tmp_path / "run" / "progress.csv").read_text()
-    assert "crowd_pictures" in progress  # validated in a crowd too
-    with pytest.raises(ValueError, match="crowd_only needs crowd"):
-        SearchConfig(crowd_only=True)

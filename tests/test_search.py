@@ -21,7 +21,7 @@ import baselines
 from agents.conditions import ConditionRanges
 from agents.features import LinearScorer
 from agents.linear_agent import linear_spec, save_linear_agent
-from agents.linear_terms import LINEAR_TERMS, linear_terms
+from agents.linear_terms import CROWD_TERMS, LINEAR_TERMS, linear_terms
 from agents.policy import load_agent, load_model
 from agents.search import LinearChooser, SearchConfig, chooser, search
 from agents.spec import AgentSpec, saved_spec
@@ -225,3 +225,15 @@ def test_a_search_at_rest_saves_an_agent_that_rests(tmp_path: Path) -> None:
     assert isinstance(loaded, RestWhenSure)
     assert loaded.sure == 0.999
     assert _episode(loaded, False) == _episode(chooser(mu, 0.999)(), False)
+
+
+def test_a_crowd_only_search_moves_only_the_crowding_terms(tmp_path: Path) -> None:
+    config = dataclasses.replace(TINY, crowd=True, crowd_only=True)
+    mu = search(config, tmp_path / "run", log=lambda _: None)
+    gated = np.array([t.name.endswith("*crowding") for t in CROWD_TERMS])
+    assert np.all(mu[~gated] == 0.0)
+    assert np.any(mu[gated] != 0.0)
+    progress = (tmp_path / "run" / "progress.csv").read_text()
+    assert "crowd_pictures" in progress  # validated in a crowd too
+    with pytest.raises(ValueError, match="crowd_only needs crowd"):
+        SearchConfig(crowd_only=True)
