@@ -36,6 +36,7 @@ from agents.candidate_features import (
 from agents.crowd_features import crowd_columns
 from agents.spec import check_features
 from anonloc_env.camera import survey
+from anonloc_env.config import EnvConfig
 from baselines.active import CandidateSet, GreedyIdentification, GreedySettings, Hypotheses
 from baselines.steps import BeliefView, Step
 
@@ -67,12 +68,7 @@ class CandidateChooser(GreedyIdentification):
         self.cset: CandidateSet | None = None
         self.observation = empty_observation(0, candidates, (len(found[0]), len(found[1])))
         self.decided = False
-        self._view: tuple[float, float, float, float] | None = None
-
-    def _stack(
-        self, candidates: dict[str, np.ndarray] | None, context: dict[str, np.ndarray]
-    ) -> dict[str, np.ndarray]:
-        return stack_columns(candidates, context, self.names, self.n, self.candidates)
+        self._view: tuple[EnvConfig, tuple[float, float, float, float]] | None = None
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
@@ -116,7 +112,7 @@ class CandidateChooser(GreedyIdentification):
             if columns is not None:
                 columns.update(crowd)
         self.cset = cset
-        self.observation = self._stack(columns, context)
+        self.observation = stack_columns(columns, context, self.names, self.n, self.candidates)
         self.decided = False
         self.on_scored()
 
@@ -146,8 +142,9 @@ class CandidateChooser(GreedyIdentification):
                 ],
                 axis=-1,
             )
-        if self._view is None:
-            self._view = survey(config).field_of_view
+        # The field of view, again when the config changes (a training copy redraws its scenario).
+        if self._view is None or self._view[0] is not config:
+            self._view = (config, survey(config).field_of_view)
         return crowd_columns(
             belief,
             rows,
@@ -156,7 +153,7 @@ class CandidateChooser(GreedyIdentification):
             config.schedule.picture_interval,
             scale,
             config.robot.size * scale,
-            self._view,
+            self._view[1],
         )
 
     def on_scored(self) -> None:

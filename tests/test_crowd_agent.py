@@ -43,9 +43,9 @@ class _Recorder(LinearChooser):
         super().on_scored()
 
 
-def _crowded(own: object, seed: int = 3) -> list[tuple]:
-    """An episode of 12 robots at 4 per m^2 (8 pictures)."""
-    side = float(np.sqrt(12 / 4.0))
+def _crowded(own: object, seed: int = 3, density: float = 4.0) -> list[tuple]:
+    """An episode of 12 robots at ``density`` per m^2 (8 pictures)."""
+    side = float(np.sqrt(12 / density))
     config = anonloc_env.make_config(n_robots=12, arena_size=(side, side))
     env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
     team = baselines.make_team("bayes", env, excitation=own)
@@ -70,6 +70,18 @@ def test_the_crowd_features_follow_the_layouts_and_leave_the_episode_unchanged()
     assert 0.0 <= risk.min() < risk.max() <= 1.0  # a crowd has contacts
     assert 0.0 <= free.min() < free.max() <= 1.0
     assert 0.0 <= crowding.min() < crowding.max()
+
+
+def test_a_chooser_that_meets_a_new_arena_sees_its_field_of_view() -> None:
+    """A training copy redraws its scenario with the same excitation: the crowd features of the
+    new arena are those of a fresh chooser there."""
+    reused = _Recorder(np.zeros(len(CROWD_TERMS)), CROWD)
+    _crowded(reused, density=4.0)
+    reused.seen.clear()
+    fresh = _Recorder(np.zeros(len(CROWD_TERMS)), CROWD)
+    assert _crowded(reused, density=1.0) == _crowded(fresh, density=1.0)
+    for a, b in zip(reused.seen, fresh.seen, strict=True):
+        np.testing.assert_array_equal(a["candidates"], b["candidates"])
 
 
 def test_a_contact_averse_weight_changes_the_choices() -> None:
