@@ -7,6 +7,7 @@ import dataclasses
 import itertools
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -83,6 +84,24 @@ def _right_and_decided(model: SensorModel, path: Path = PRESSED) -> list[np.ndar
     ]
 
 
+def _assert_kept_now(
+    result: Any,
+    lost: list[tuple[int, int]],
+    before: list[np.ndarray],
+    now: list[np.ndarray],
+) -> None:
+    """Each ``(picture, robot)`` of ``lost`` was pushed in the two intervals before the picture,
+    right and decided at the picture before it under both models; ``before`` lost it there and
+    ``now`` keeps it."""
+    for k, robot in lost:
+        assert was_pushed(result.intervals[k - 2], robot)
+        assert was_pushed(result.intervals[k - 1], robot)
+        assert before[k - 1][robot]
+        assert not before[k][robot]
+        assert now[k - 1][robot]
+        assert now[k][robot]
+
+
 def test_pressed_robots_keep_their_decision() -> None:
     """With the wide pushes alone (the model before the mixture) eight robots, right and decided
     at picture 5 to 7 and pressed against a neighbour, went undecided at the next picture (their
@@ -94,13 +113,7 @@ def test_pressed_robots_keep_their_decision() -> None:
     wide = _right_and_decided(dataclasses.replace(model, crowd_push_tail=1.0))
     mixed = _right_and_decided(model)
     lost = [(6, 63), (7, 93), (8, 17), (8, 40), (8, 52), (8, 64), (8, 83), (8, 87)]
-    for k, robot in lost:
-        assert was_pushed(result.intervals[k - 2], robot)
-        assert was_pushed(result.intervals[k - 1], robot)
-        assert wide[k - 1][robot]
-        assert not wide[k][robot]
-        assert mixed[k - 1][robot]
-        assert mixed[k][robot]
+    _assert_kept_now(result, lost, wide, mixed)
     assert largest_fall([float(g.mean()) for g in wide]) >= 0.05
     assert largest_fall([float(g.mean()) for g in mixed]) <= 0.021
     decided = sum(int(g.sum()) for g in mixed)
@@ -124,13 +137,8 @@ def test_pressed_robots_no_longer_drop_the_share() -> None:
     assert model.contact_break == pytest.approx(CONTACT_BREAK / 2.0)
     fourth = dataclasses.replace(model, crowd_push_tail=0.1, contact_break=CONTACT_BREAK / 4.0)
     before, now = _right_and_decided(fourth, FALL), _right_and_decided(model, FALL)
-    for k, robot in [(5, 46), (5, 75), (10, 26), (10, 54), (12, 26), (16, 56)]:
-        assert was_pushed(result.intervals[k - 2], robot)
-        assert was_pushed(result.intervals[k - 1], robot)
-        assert before[k - 1][robot]
-        assert not before[k][robot]
-        assert now[k - 1][robot]
-        assert now[k][robot]
+    lost = [(5, 46), (5, 75), (10, 26), (10, 54), (12, 26), (16, 56)]
+    _assert_kept_now(result, lost, before, now)
     assert largest_fall([float(g.mean()) for g in before]) >= 0.02 - 1e-9
     assert largest_fall([float(g.mean()) for g in now]) <= 0.01 + 1e-9
 

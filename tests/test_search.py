@@ -203,6 +203,32 @@ def test_anonloc_search_runs_as_users_run_it(tmp_path: Path) -> None:
     assert not (tmp_path / "other" / "search.json").exists()
 
 
+def test_anonloc_search_with_the_crowd_features_as_users_run_it(tmp_path: Path) -> None:
+    """The real console script with ``--crowd --crowd-only``: the saved agent names the crowd
+    features and terms, only the crowding-gated weights moved, the validation has a crowd, and
+    ``--crowd-only`` without ``--crowd`` is refused before any work."""
+    from tests.cli_helpers import run_script
+
+    out = tmp_path / "crowd"
+    small = ["--pairs", "1", "--scenarios", "1", "--seeds", "1", "--pictures", "3"]
+    small += ["--validation-episodes", "2", "--generations", "1", "--rest", "0.9999"]
+    done = run_script("search", out, "--crowd", "--crowd-only", *small, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "crowd " in done.stdout  # the crowd validation in the summary line
+    spec = saved_spec(out / "agent.zip")
+    assert spec is not None
+    assert spec.terms == CROWD_TERMS
+    assert [f.name for f in spec.context_features][-2:] == ["free_space", "crowding"]
+    assert spec.rest == 0.9999
+    weights = load_model(out / "agent.zip").policy.scorer.weights.detach().numpy()
+    gated = np.array([t.name.endswith("*crowding") for t in CROWD_TERMS])
+    assert np.all(weights[~gated] == 0.0)
+    bad = run_script("search", tmp_path / "other", "--crowd-only")
+    assert bad.returncode != 0
+    assert "crowd_only needs crowd" in bad.stderr
+    assert not (tmp_path / "other" / "search.json").exists()
+
+
 @pytest.mark.parametrize("swarm", [False, True])
 def test_zero_weights_at_rest_are_uniform_rest_bit_for_bit(swarm: bool) -> None:
     """The search's ablation with ``rest`` is ``uniform-rest`` itself, and resting changes the
