@@ -23,6 +23,7 @@ from anonloc_env.identify import Identifier, Interval, SensorModel
 from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.rewards import InformationGain
 from baselines import angular, linear, matching, motion
+from baselines.decisions import Decisions
 
 MODES = ("corrected", "faithful")
 #: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
@@ -350,6 +351,11 @@ class BayesLocalizer(Localizer):
         threshold: belief above which a robot decides (default 0.99).
         scale_known: False estimates the camera scale per hypothesis.
         share: read the env's reward's identifier where it is the same (see above).
+        keep: belief down to which a decided robot keeps its decision while its belief dips
+            along the track it decided on (``baselines.decisions``); None (the default):
+            ``threshold``, no hold.
+        settle: intervals pushed in a row past which a robot takes no new decision
+            (``baselines.decisions``); None (the default): no limit.
     """
 
     needs = 1
@@ -362,11 +368,12 @@ class BayesLocalizer(Localizer):
         threshold: float = 0.99,
         scale_known: bool = True,
         share: bool = True,
+        keep: float | None = None,
+        settle: int | None = None,
     ) -> None:
         if mode != "corrected":
             raise ValueError("the Bayesian identifier has no faithful mode; use mode='corrected'")
-        if not 0.5 < threshold < 1.0:
-            raise ValueError(f"threshold must be in (0.5, 1), got {threshold}")
+        self.decisions = Decisions(threshold, keep, settle)
         self.threshold = threshold
         self.scale_known = scale_known
         self.share = share
@@ -409,6 +416,7 @@ class BayesLocalizer(Localizer):
     def reset(self) -> None:
         super().reset()
         self._seen = 0
+        self.decisions.reset()
         if self._own is not None:  # (built at its first picture: a new one needs no reset)
             self._own.reset()
 
@@ -419,13 +427,7 @@ class BayesLocalizer(Localizer):
             self._check_in_step(rows)
         self._seen += 1
         self.belief = self.identifier.belief()
-        n_rows = self.belief.shape[1]
-        if n_rows == 0:
-            self.estimate = np.full(self.n, -1, dtype=np.int64)
-            return
-        best = self.belief.argmax(axis=1)
-        sure = self.belief[np.arange(self.n), best] >= self.threshold
-        self.estimate = np.where(sure, best, -1)
+        self.estimate = self.decisions.decide(self.identifier, self.belief)
 
     def _check_in_step(self, rows: np.ndarray) -> None:
         """The shared identifier took in this very picture, and all the team's before it."""

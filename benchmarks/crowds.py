@@ -57,10 +57,12 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.odometry import Interval
+from baselines.decisions import Decisions
 from baselines.excitations import BumpReflex, Excitation, GapSeeking, GapSettings
+from baselines.localizers import BayesLocalizer
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult, run_episode
-from baselines.scoring import bootstrap_mean, summarize
+from baselines.scoring import bootstrap_mean, first_identified, summarize
 from benchmarks.excitations import scenario
 from benchmarks.identify_quality import Scores, reliability
 
@@ -79,12 +81,15 @@ class Played:
         poses: ``(N, 3)`` true poses at each scored picture (ground truth).
         top: ``(N,)`` each robot's top belief at each scored picture.
         top_row: ``(N,)`` the row of that top belief.
+        rules: each other decision rule's ``(N,)`` decisions at each scored picture (see
+            :data:`RULES`).
     """
 
     result: EpisodeResult
     poses: list[np.ndarray] = field(default_factory=list)
     top: list[np.ndarray] = field(default_factory=list)
     top_row: list[np.ndarray] = field(default_factory=list)
+    rules: dict[str, list[np.ndarray]] = field(default_factory=dict)
 
 
 class _PoseTap:
@@ -134,17 +139,31 @@ def without_escape(
     return {**extra, **{name: functools.partial(old, name) for name in names}}
 
 
+#: Decision rules scored beside ``bayes``'s plain one (``--rules``; ``baselines.decisions``):
+#: ``(keep, settle)``. The decisions never reach the motion (every excitation reads beliefs), so
+#: each rule is scored on the very episodes the plain rule plays.
+RULES: dict[str, tuple[float | None, int | None]] = {
+    "hold 0.9": (0.9, None),
+    "settle 6": (None, 6),
+    "hold 0.9, settle 6": (0.9, 6),
+}
+
+
 def play(
     env: AnonLocEnv,
     name: str,
     seed: int,
     pictures: int = PICTURES,
     extra: Mapping[str, Callable[[], Excitation]] | None = None,
+    rules: Sequence[str] = (),
 ) -> Played:
-    """Play one episode of ``bayes`` with excitation ``name``, noting poses and top beliefs."""
+    """Play one episode of ``bayes`` with excitation ``name``, noting poses and top beliefs (and
+    the decisions of ``rules``, names of :data:`RULES`)."""
     played = Played(EpisodeResult(seed, env.config.n_robots, []))
     team = baselines.make_team("bayes", env, excitation=make_excitation(name, extra or {}))
     beliefs = team.beliefs
+    deciders = {rule: Decisions(THRESHOLD, *RULES[rule]) for rule in rules}
+    played.rules = {rule: [] for rule in rules}
 
     def noted(listener: str | None = None) -> np.ndarray:
         table = beliefs(listener)
@@ -152,12 +171,16 @@ def play(
             empty = table.shape[1] == 0
             played.top.append(np.zeros(len(table)) if empty else table.max(axis=1))
             played.top_row.append(np.full(len(table), -1) if empty else table.argmax(axis=1))
+            identifier = cast(BayesLocalizer, team.localizer).identifier
+            for rule, decider in deciders.items():
+                played.rules[rule].append(decider.decide(identifier, table))
         return table
 
     team.beliefs = noted  # type: ignore[method-assign]  # a tap on the scored beliefs
     tap = cast(AnonLocEnv, _PoseTap(env, played))
     played.result = run_episode(tap, team, seed, max_pictures=pictures)
     played.poses = played.poses[: len(played.result.pictures)]
+    played.rules = {k: v[: len(played.result.pictures)] for k, v in played.rules.items()}
     return played
 
 
@@ -289,6 +312,32 @@ def score_cell(episodes: Sequence[Played]) -> dict[str, Any]:
         "share": share,
         "fall_after_95": largest_fall(share),
         "reliability": reliability(scores),
+        "rules": {rule: score_rule(episodes, rule) for rule in episodes[0].rules},
+    }
+
+
+def score_rule(episodes: Sequence[Played], rule: str) -> dict[str, Any]:
+    """The measures of :func:`score_cell` for the decisions of ``rule`` (``Played.rules``)."""
+    censored, decided, wrong, shares, reached = [], 0, 0, [], 0
+    for p in episodes:
+        estimates = np.array(p.rules[rule])  # (pictures, N)
+        true = np.array(p.result.true_rows[: len(estimates)])
+        right = (estimates >= 0) & (estimates == true)
+        decided += int((estimates >= 0).sum())
+        wrong += int(((estimates >= 0) & ~right).sum())
+        shares.append(right.mean(axis=1))
+        ones = np.ones(right.T.shape, bool)
+        first, _ = first_identified(right.T, ones, np.zeros(right.T.shape))
+        censored.append(first if first is not None else len(estimates))  # as summarize()
+        reached += first is not None
+    share = np.mean(shares, axis=0).tolist()
+    return {
+        "reached": reached,
+        "pictures": dataclasses.asdict(bootstrap_mean(censored)),
+        "decided": decided,
+        "wrong": wrong,
+        "share": share,
+        "fall_after_95": largest_fall(share),
     }
 
 
@@ -310,9 +359,10 @@ def results(
     first_seed: int,
     extra: Mapping[str, Callable[[], Excitation]] | None = None,
     json_path: str | None = None,
+    rules: Sequence[str] = (),
 ) -> list[dict[str, Any]]:
     """Every cell of the grid, on the same seeds for every excitation (written to ``json_path``
-    after every cell, if given)."""
+    after every cell, if given), with the decision rules ``rules`` scored beside the plain one."""
     out = []
     for density in densities:
         for n in robots:
@@ -320,10 +370,12 @@ def results(
             env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
             for name in names:
                 seeds = range(first_seed, first_seed + episodes)
-                cell = score_cell([play(env, name, s, extra=extra) for s in seeds])
+                cell = score_cell([play(env, name, s, extra=extra, rules=rules) for s in seeds])
                 cell.update(density=density, n=n, excitation=name)
                 out.append(cell)
                 print(_line(cell), flush=True)
+                for rule in rules:
+                    print(_line(cell, rule), flush=True)
                 if json_path:
                     write_json(json_path, out)
     return out
@@ -335,15 +387,19 @@ HEADER = (
 )
 
 
-def _line(cell: Mapping[str, Any]) -> str:
-    p = cell["pictures"]
-    wrong = 100.0 * cell["wrong"] / max(cell["decided"], 1)
-    fall = cell["fall_after_95"]
+def _line(cell: Mapping[str, Any], rule: str | None = None) -> str:
+    """A table row of ``cell``: its plain decisions, or those of ``rule`` (named after the
+    excitation)."""
+    scored = cell if rule is None else cell["rules"][rule]
+    p = scored["pictures"]
+    wrong = 100.0 * scored["wrong"] / max(scored["decided"], 1)
+    fall = scored["fall_after_95"]
     fall_text = "never 95 %" if fall is None else f"{100 * fall:.1f} pt"
+    name = cell["excitation"] if rule is None else f"{cell['excitation']}, {rule}"
     return (
-        f"| {cell['density']:g} | {cell['n']} | {cell['excitation']} | {p['mean']:.2f} "
-        f"[{p['low']:.2f}, {p['high']:.2f}] | {cell['reached']}/{cell['episodes']} "
-        f"| {wrong:.2f} % of {cell['decided']:,} ({cell['wrong']}) | {fall_text} |"
+        f"| {cell['density']:g} | {cell['n']} | {name} | {p['mean']:.2f} "
+        f"[{p['low']:.2f}, {p['high']:.2f}] | {scored['reached']}/{cell['episodes']} "
+        f"| {wrong:.2f} % of {scored['decided']:,} ({scored['wrong']}) | {fall_text} |"
     )
 
 
@@ -468,6 +524,9 @@ def main(argv: list[str] | None = None) -> None:
         "--no-escape", action="store_true", help="the candidate excitations without the bump reflex"
     )
     r.add_argument("--gaps-wait", type=float, help="gaps' wait limit (s; inf: none)")
+    r.add_argument(
+        "--rules", action="store_true", help="score the decision rules of RULES beside bayes's own"
+    )
     t = sub.add_parser("table", help="the markdown table of a results JSON")
     t.add_argument("results")
     p = sub.add_parser("plot")
@@ -511,7 +570,7 @@ def main(argv: list[str] | None = None) -> None:
         )
         print("|---|---|---|---|---|---|---|")
         grid = (args.densities, args.robots, names, args.episodes, args.first_seed)
-        results(*grid, extra, args.json)
+        results(*grid, extra, args.json, list(RULES) if args.rules else [])
     elif args.command == "open-space":
         names, extra = list(args.excitations), _agent(args.agent)
         names += list(extra)
@@ -534,6 +593,11 @@ def main(argv: list[str] | None = None) -> None:
         print(HEADER)
         for cell in cells:
             print(_line(cell))
+        if any(cell.get("rules") for cell in cells):
+            print("\n" + HEADER)
+            for cell in cells:
+                for rule in cell.get("rules", {}):
+                    print(_line(cell, rule))
     elif args.command == "plot":
         from benchmarks.plot_crowds import plot
 

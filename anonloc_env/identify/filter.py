@@ -80,9 +80,19 @@ class Identifier:
         self._missing: np.ndarray | None = None
         self.pictures = 0
         self._pushed_run = np.zeros(self.n, np.int64)  # intervals in a row each robot was pushed
+        # The newest interval as the model took it, and its pixel variance (None before a second
+        # picture): what a decided track's continuation is scored with (contact.continuations).
+        self.interval: Interval | None = None
+        self.pix_var = 0.0
         self._view: OutOfView | None = None  # the newest picture's footprint (a moving camera)
         if self.registration is not None:
             self.registration.reset()
+
+    @property
+    def pushed_run(self) -> np.ndarray:
+        """``(R,)`` intervals in a row each robot was pushed, the newest one included (what the
+        contact model calls pressed, >= 2, and jammed, > ``crowd_jam``)."""
+        return self._pushed_run
 
     def _pixel_var(self, rows: np.ndarray) -> float:
         """The pixel variance, floored: float32 observations limit what "noise free" can mean."""
@@ -117,8 +127,10 @@ class Identifier:
             before = np.zeros(self.n)
             unanchored = before + log_unseen
             self.links = None
+            self.interval = None
         else:
             interval = self._pressed(interval)
+            self.interval = interval
             parts, unanchored = self._extend(rows, interval, log_bg, view, log_unseen)
             before = self.unanchored
         bias = None if self.links is None else self.links.starts + log_bg
@@ -181,7 +193,7 @@ class Identifier:
         model = self.model
         assert self.rows is not None
         prev = self.rows
-        pix_var = self._pixel_var(np.concatenate([prev, rows]))
+        pix_var = self.pix_var = self._pixel_var(np.concatenate([prev, rows]))
         self.links = links_between(model, prev, rows, log_bg, pix_var, self.links)
         var_d, _ = interval.variances(model.odometry_noise)
         s_high = model.scale_bounds[1]
