@@ -212,7 +212,8 @@ class Builder(NamedTuple):
             if not reach.all():
                 keep = np.flatnonzero(reach)
                 pick, slot, p_row = pick[keep], slot[keep], p_row[keep]
-                bg = bg if np.isscalar(bg) else bg[keep]
+                if isinstance(bg, np.ndarray):  # per link (the others persist)
+                    bg = bg[keep]
         known = model.scale is not None
         parent = Tracks.fresh(
             slot,
