@@ -38,6 +38,17 @@ def make_excitation_of(name: str) -> Callable[[], Excitation]:
     return lambda: make_excitation(name)
 
 
+def ten_at_one_per_m2(pictures: int) -> anonloc_env.EnvConfig:
+    """Ten robots at one per m², 1 px, no headings, long enough for ``pictures`` pictures."""
+    side = math.sqrt(10)
+    return anonloc_env.make_config(
+        n_robots=10,
+        arena_size=(side, side),
+        camera={"pixel_noise": 1.0, "orientation": False},
+        max_cycles=20 * pictures + 1,
+    )
+
+
 def _picture(excitation: Excitation, belief: list[list[float]]) -> None:
     view: Any = SimpleNamespace(belief=np.array(belief))
     excitation.on_picture(None, view)  # type: ignore[arg-type]  # reads view.belief only
@@ -96,13 +107,7 @@ def test_resting_once_sure_saves_energy_at_about_the_pictures_of_uniform() -> No
     Measured (``docs/agents.md``, 20 to 40 episodes): 0.73x to 0.78x the energy to 99 % at 1.03x
     to 1.04x the pictures. The test asks for less than 0.9x the energy and at most 1.2x the
     pictures on 12 episodes (the paired ratio's interval there is about +-0.1)."""
-    side = math.sqrt(10)
-    config = anonloc_env.make_config(
-        n_robots=10,
-        arena_size=(side, side),
-        camera={"pixel_noise": 1.0, "orientation": False},
-        max_cycles=401,
-    )
+    config = ten_at_one_per_m2(pictures=20)
     seeds = range(100_000, 100_012)
     rest, chance = (
         np.array([censored(r, 20) for r in play(config, "free", 0.2, make, seeds, 20)])
@@ -156,13 +161,7 @@ def test_a_robot_wrongly_sure_at_rest_is_corrected_by_its_probe(seed: int) -> No
     is sometimes wrongly sure). On these seeds, found by a search over seeds 0 to 79, a robot
     that rests without probing is still wrong at the last picture; with ``probe=3`` every robot
     is right or undecided there, and fewer decisions are wrong over the episode."""
-    side = math.sqrt(10)
-    config = anonloc_env.make_config(
-        n_robots=10,
-        arena_size=(side, side),
-        camera={"pixel_noise": 1.0, "orientation": False},
-        max_cycles=321,
-    )
+    config = ten_at_one_per_m2(pictures=15)
 
     def wrong(probe: int | None) -> tuple[int, int]:
         def make() -> Excitation:
