@@ -103,16 +103,15 @@ class Crew:
         self.chooser.decide(np.asarray(actions).reshape(-1))
         reward = np.zeros(self.n)
         spent = np.zeros(self.n)
-        robot, dt = self.config.robot, self.config.dt
-        steps = 0
+        dt = self.config.dt
+        sent: list[np.ndarray] = []
         self.chooser.defer = defer
         try:
             while True:  # the env's arrays, never its per-agent dicts (the same bits)
-                steps += 1
                 v, w = self.team.excitation.commands(self._step, dt)
                 env_actions = self.team.command(v, w)
+                sent.append(env_actions)
                 result = self.env.step_arrays(env_actions)
-                spent += energy(self.config, *to_commands(env_actions, robot))
                 reward += result.rewards
                 step = self.team.take(result.seen)
                 self._step = step
@@ -120,7 +119,10 @@ class Crew:
                     break
         finally:
             self.chooser.defer = False
-        self._advanced = (result, reward, spent, steps)
+        # Each step's wheel travel, computed for all steps at once, added up step by step.
+        for travel in energy(self.config, *to_commands(np.stack(sent), self.config.robot)):
+            spent += travel
+        self._advanced = (result, reward, spent, len(sent))
         return self.chooser.job
 
     def finish(self, entropy: np.ndarray | None = None) -> StepResult:
