@@ -95,8 +95,8 @@ class Crew:
         return self.finish(None if job is None else job.entropy())
 
     def advance(self, actions: np.ndarray, defer: bool = False) -> ScoringJob | None:
-        """:meth:`step` up to the picture. With ``defer`` the candidates of a new picture are
-        prepared but not scored: the returned job's expected entropy goes to :meth:`finish`
+        """``step`` up to the picture. With ``defer`` the candidates of a new picture are
+        prepared but not scored: the returned job's expected entropy goes to ``finish``
         (``agents.vec.AnonLocVecEnv`` scores all its copies in one call); None when nothing
         is to be scored."""
         assert self._step is not None, "reset() first"
@@ -126,8 +126,8 @@ class Crew:
         return self.chooser.job
 
     def finish(self, entropy: np.ndarray | None = None) -> StepResult:
-        """The decision begun by :meth:`advance`: its picture scored with ``entropy`` (the
-        expected entropy of the job :meth:`advance` returned; None when it returned None)."""
+        """The decision begun by ``advance``: its picture scored with ``entropy`` (the
+        expected entropy of the job ``advance`` returned; None when it returned None)."""
         assert self._advanced is not None, "advance() first"
         result, reward, spent, steps = self._advanced
         self._advanced = None

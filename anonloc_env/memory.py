@@ -9,7 +9,7 @@ of 100 KiB to a few MiB at every picture (an ``(R, K, C, S)`` array of 30 robots
 so a learning run faulted in about 125 pages per decision of a copy of 30 robots, and an
 ``exp`` over 86,000 numbers cost 0.83 ms with its faults against 0.09 ms without.
 
-:func:`keep_freed_memory` raises both thresholds (``mallopt``), so that those arrays reuse the
+``keep_freed_memory`` raises both thresholds (``mallopt``), so that those arrays reuse the
 heap's memory: a few hundred MiB may then stay with the process after a large step. The
 learning path (``agents.vec.AnonLocVecEnv``) calls it; nothing else does, since it changes the
 whole process. Elsewhere than on glibc, or with ``ANONLOC_MALLOC=0`` in the environment, it
@@ -34,8 +34,8 @@ _DONE: list[bool] = []
 
 
 def keep_freed_memory() -> bool:
-    """Raise glibc's ``M_MMAP_THRESHOLD`` to :data:`MMAP_THRESHOLD` and ``M_TRIM_THRESHOLD`` to
-    :data:`TRIM_THRESHOLD` for this process (once; see the module doc). Returns whether they are
+    """Raise glibc's ``M_MMAP_THRESHOLD`` to ``MMAP_THRESHOLD`` and ``M_TRIM_THRESHOLD`` to
+    ``TRIM_THRESHOLD`` for this process (once; see the module doc). Returns whether they are
     set: False off glibc, with ``ANONLOC_MALLOC=0``, or if ``mallopt`` refused."""
     if _DONE:
         return _DONE[0]

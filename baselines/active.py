@@ -89,7 +89,7 @@ class PredictionGeometry:
 
     Each field is one number for all robots, or (``scale`` to ``p_detect``) an ``(R,)`` array,
     one per robot, where the robots of several envs are scored together
-    (:func:`entropies_together`).
+    (``entropies_together``).
 
     Attributes:
         scale: image units per metre.
@@ -136,7 +136,7 @@ class ScoringJob:
     (``GreedyIdentification.prepare``).
 
     Attributes:
-        commands: ``(R, C, 2)`` the candidates (as in :class:`CandidateSet`).
+        commands: ``(R, C, 2)`` the candidates (as in ``CandidateSet``).
         hyp: the robots' hypotheses.
         geo: the prediction's geometry (numbers).
         own: ``(R, C, 2)`` each candidate's displacement in the robot's frame (m).
@@ -154,7 +154,7 @@ class ScoringJob:
     ring_samples: int
 
     def entropy(self) -> np.ndarray:
-        """``(R, C)`` the expected entropies (:func:`expected_entropy`)."""
+        """``(R, C)`` the expected entropies (``expected_entropy``)."""
         return expected_entropy(self.hyp, self.own, self.others, self.geo, self.ring_samples)
 
     def finish(self, entropy: np.ndarray) -> CandidateSet:
@@ -166,11 +166,11 @@ class ScoringJob:
 
 
 def entropies_together(jobs: Sequence[ScoringJob]) -> list[np.ndarray]:
-    """Each job's :meth:`ScoringJob.entropy`, the jobs of one shape (hypotheses, candidates,
+    """Each job's ``ScoringJob.entropy``, the jobs of one shape (hypotheses, candidates,
     the others' commands and ring points alike) stacked along the robot axis and computed in
-    one call of :func:`expected_entropy`, whose geometry is then one number per robot.
+    one call of ``expected_entropy``, whose geometry is then one number per robot.
 
-    Every operation of :func:`expected_entropy` is elementwise along the robot axis or reduces
+    Every operation of ``expected_entropy`` is elementwise along the robot axis or reduces
     along another, so each robot's values are those of its job's own call, to the bit
     (``tests/test_active.py`` and ``tests/test_vec.py`` check). K envs then cost a few numpy
     calls per picture instead of K times as many.
@@ -280,9 +280,9 @@ def _live(hyp: Hypotheses) -> Hypotheses:
 
 
 def _per_robot(value: float | np.ndarray, ndim: int) -> float | np.ndarray:
-    """A field of :class:`PredictionGeometry` ready to broadcast against an array of ``ndim``
+    """A field of ``PredictionGeometry`` ready to broadcast against an array of ``ndim``
     axes whose first is the robot's: a number as it is, an ``(R,)`` array (robots of several
-    envs scored together, :func:`entropies_together`) as ``(R, 1, ...)``."""
+    envs scored together, ``entropies_together``) as ``(R, 1, ...)``."""
     if np.ndim(value) == 0:
         return value
     return np.reshape(value, (-1,) + (1,) * (ndim - 1))
@@ -426,7 +426,7 @@ EXP_FLOOR = -700.0
 
 
 def _exp(exponent: np.ndarray) -> np.ndarray:
-    """``exp`` of the exponents, those below :data:`EXP_FLOOR` raised to it (in place)."""
+    """``exp`` of the exponents, those below ``EXP_FLOOR`` raised to it (in place)."""
     return np.exp(np.maximum(exponent, EXP_FLOOR, out=exponent), out=exponent)
 
 
@@ -560,9 +560,9 @@ class GreedyIdentification(Excitation):
         return None if job is None else job.finish(job.entropy())
 
     def prepare(self) -> ScoringJob | None:
-        """:meth:`score` up to the expected entropy, which the job computes (``entropy``) or
-        which :func:`entropies_together` computes for the jobs of several envs in one call. The
-        candidates are drawn here, so the robots' generators advance as in :meth:`score`."""
+        """``score`` up to the expected entropy, which the job computes (``entropy``) or
+        which ``entropies_together`` computes for the jobs of several envs in one call. The
+        candidates are drawn here, so the robots' generators advance as in ``score``."""
         deviation = self.following
         cand = self._candidates(deviation)
         if self._pending is None:
