@@ -12,7 +12,7 @@ never observable from the robots alone, and does not matter to identification).
 
     python benchmarks/drone.py --n 10 --episodes 10 --out results/drone-10.json
 
-Episodes use seeds 1000, 1001, ... (the same in every condition).
+Episodes use seeds 1000, 1001, ... (``--seed0``; the same in every condition).
 """
 
 from __future__ import annotations
@@ -309,6 +309,7 @@ def table(files: list[Path]) -> str:
 
 
 def main() -> None:
+    global SEED0
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=10)
     parser.add_argument("--episodes", type=int, default=10)
@@ -327,8 +328,12 @@ def main() -> None:
         help="field of view wider than the arena by this much each side (m); 0 in the results",
     )
     parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
+    parser.add_argument(
+        "--seed0", type=int, default=SEED0, help="first episode's seed (the rest follow it)"
+    )
     parser.add_argument("--table", type=Path, nargs="*", help="print the docs' table of files")
     args = parser.parse_args()
+    SEED0 = args.seed0
     if args.table:
         print(table(args.table))
         return
@@ -361,6 +366,7 @@ def main() -> None:
                     "pixel_noise": args.pixel_noise,
                     "view_margin": args.view_margin,
                     "episodes": args.episodes,
+                    "seed0": args.seed0,
                     "pictures_to_99": [mean.mean, mean.low, mean.high],
                     "reached_99": t.reached,
                     "wrong": [t.wrong, t.decided],
