@@ -61,6 +61,7 @@ from agents.spec import AgentSpec, Reward
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.presets import make_config
+from baselines.excitations.swarm import DUTY_BUDGET
 
 #: The tasks' YAML files (package data): ``raw.yaml`` and ``belief.yaml``.
 CONF = Path(__file__).parent / "conf"
@@ -104,7 +105,7 @@ class BeliefSettings(RawSettings):
     """
 
     condition: str = "free"
-    budget: float = 0.2
+    budget: float = DUTY_BUDGET
     information_weight: float = 1.0
 
     def __post_init__(self) -> None:

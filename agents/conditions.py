@@ -16,6 +16,7 @@ import numpy as np
 
 import anonloc_env
 from anonloc_env.config import EnvConfig
+from baselines.excitations.swarm import DUTY_BUDGET
 
 #: Numbers of robots drawn in training (none of the evaluation conditions' N).
 TRAINING_ROBOTS = (3, 6, 14, 30, 40)
@@ -125,7 +126,7 @@ VALIDATION_CROWD_DENSITY = 4.0
 
 
 def validation_scenario(
-    condition: str = "free", budget: float = 0.2, pictures: int = 20, density: float = 1.0
+    condition: str = "free", budget: float = DUTY_BUDGET, pictures: int = 20, density: float = 1.0
 ) -> Scenario:
     """The validation condition of training runs and searches: :data:`VALIDATION_ROBOTS` robots
     at ``density`` robots per square metre (one; :data:`VALIDATION_CROWD_DENSITY` for the

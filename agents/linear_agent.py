@@ -19,9 +19,10 @@ import numpy as np
 
 from agents.linear_terms import LINEAR_TERMS, check_weights
 from agents.spec import AgentSpec
+from baselines.excitations.swarm import DUTY_BUDGET
 
 
-def linear_spec(condition: str = "mixed", budget: float = 0.2) -> AgentSpec:
+def linear_spec(condition: str = "mixed", budget: float = DUTY_BUDGET) -> AgentSpec:
     """The spec of a linear agent (the default features and candidates)."""
     return AgentSpec(condition=condition, budget=budget, scorer="linear", terms=LINEAR_TERMS)
 

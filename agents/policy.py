@@ -31,6 +31,7 @@ from agents.spec import AgentSpec, check_saved, on_duty, saved_spec
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
 from baselines.excitations.rest import at_rest
+from baselines.excitations.swarm import DUTY_BUDGET
 from baselines.localizers import BayesLocalizer
 from baselines.policies import Team
 
@@ -164,7 +165,9 @@ def model_spec(model: Any) -> AgentSpec | None:
     return AgentSpec.from_json(data) if data is not None else None
 
 
-def load_agent(path: str | Path, condition: str | None = None, budget: float = 0.2) -> Excitation:
+def load_agent(
+    path: str | Path, condition: str | None = None, budget: float = DUTY_BUDGET
+) -> Excitation:
     """The excitation of the agent saved at ``path`` (an ``agent.zip``, its run folder, or
     ``"bundled"``), at rest once sure when its spec says so (``AgentSpec.rest``), in
     ``condition`` (default: the one its spec records, for an older file its

@@ -48,6 +48,7 @@ from agents.linear_terms import CROWD_TERMS, KNOWN_TERMS, LINEAR_TERMS
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
 from baselines.excitations.rest import at_rest
+from baselines.excitations.swarm import DUTY_BUDGET
 
 #: Where the agent acts: ``free`` (the chosen candidate is the command), ``swarm`` (a bounded
 #: deviation from a shared command stream) or ``mixed`` (training across drawn scenarios; a
@@ -165,7 +166,7 @@ class AgentSpec:
     layout: int = LAYOUT
     reward: Reward = field(default_factory=Reward)
     condition: str = "free"
-    budget: float = 0.2
+    budget: float = DUTY_BUDGET
     scorer: str = "deep_sets"
     terms: tuple[Feature, ...] = ()
     rest: float | None = None

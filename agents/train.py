@@ -65,7 +65,7 @@ class TrainConfig:
     shared command stream), or ``mixed``: every copy draws its scenario from
     :class:`agents.conditions.ConditionRanges` and draws a new one (its N kept) at the end of
     every episode (the preset and overrides are then not used)."""
-    budget: float = 0.2
+    budget: float = 0.2  # = DUTY_BUDGET, spelled out: the CLI reads defaults without importing
     """On swarm duty: the largest deviation, as a fraction of ``v_max`` and ``omega_max``."""
     information_weight: float = 1.0
     """Weight of the identity term of the reward."""

@@ -36,6 +36,7 @@ from scipy.stats import qmc
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify import SensorModel
 from baselines.active import unicycle
+from baselines.excitations.swarm import DUTY_BUDGET
 
 CONDITIONS = ("free", "swarm")
 #: Points of the (deterministic, unscrambled) Halton sequence the union estimate averages over.
@@ -77,7 +78,7 @@ class PictureLimit:
 def picture_limit(
     config: EnvConfig,
     condition: str = "free",
-    budget: float = 0.2,
+    budget: float = DUTY_BUDGET,
     *,
     fraction: float = 0.99,
     threshold: float = 0.99,

@@ -13,10 +13,10 @@ import dataclasses
 from typing import Any
 
 from anonloc_env.config import EnvConfig
+from baselines.excitations.swarm import DUTY_BUDGET
 from benchmarks.excitations import scenario
 
 #: The swarm deviation budget of the ``swarm`` conditions (a fraction of the robot's limits).
-SWARM_BUDGET = 0.2
 #: Misses and false positives (per picture) of the ``clutter`` conditions.
 CLUTTER = {"p_miss": 0.1, "false_positives": 3.0}
 
@@ -39,13 +39,13 @@ def evaluation_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str,
         raise ValueError(f"pictures must be an integer >= 1, got {pictures!r}")
     out: dict[str, tuple[EnvConfig, str, float]] = {}
     for n in (10, 30, 100, 300, 1000):
-        out[f"free N={n}"] = (scenario(n, pictures), "free", SWARM_BUDGET)
+        out[f"free N={n}"] = (scenario(n, pictures), "free", DUTY_BUDGET)
     for n in (10, 100):
-        out[f"swarm N={n}"] = (scenario(n, pictures), "swarm", SWARM_BUDGET)
+        out[f"swarm N={n}"] = (scenario(n, pictures), "swarm", DUTY_BUDGET)
     for n in (20, 50):
-        out[f"clutter N={n}"] = (_camera(scenario(n, pictures), **CLUTTER), "free", SWARM_BUDGET)
+        out[f"clutter N={n}"] = (_camera(scenario(n, pictures), **CLUTTER), "free", DUTY_BUDGET)
     headings = _camera(scenario(100, pictures), orientation=True)
-    out["headings N=100"] = (headings, "free", SWARM_BUDGET)
+    out["headings N=100"] = (headings, "free", DUTY_BUDGET)
     return out
 
 
@@ -66,6 +66,6 @@ def crowded_conditions(pictures: int = 30) -> dict[str, tuple[EnvConfig, str, fl
     if not (isinstance(pictures, int) and pictures >= 1):
         raise ValueError(f"pictures must be an integer >= 1, got {pictures!r}")
     return {
-        f"crowd N={n}": (scenario(n, pictures, CROWD_DENSITY), "free", SWARM_BUDGET)
+        f"crowd N={n}": (scenario(n, pictures, CROWD_DENSITY), "free", DUTY_BUDGET)
         for n in (20, 100)
     }

@@ -36,6 +36,7 @@ import anonloc_env
 import baselines
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations.swarm import DUTY_BUDGET
 from baselines.registry import EXCITATIONS
 from baselines.runner import run_episode
 from baselines.scoring import IdentificationSummary, summarize
@@ -76,7 +77,7 @@ def run(
     names: Sequence[str],
     episodes: int,
     pictures: int,
-    budget: float = 0.2,
+    budget: float = DUTY_BUDGET,
     extra: Mapping[str, Callable[[int], Excitation]] | None = None,
     first_seed: int = 0,
 ) -> dict[str, tuple[IdentificationSummary, float]]:
@@ -104,7 +105,7 @@ def main() -> None:
     parser.add_argument("--excitations", nargs="+", default=list(NAMES))
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--pictures", type=int, default=40, help="episode length (pictures)")
-    parser.add_argument("--budget", type=float, default=0.2, help="swarm deviation budget")
+    parser.add_argument("--budget", type=float, default=DUTY_BUDGET, help="swarm deviation budget")
     parser.add_argument("--agent", help="a saved agent (agent.zip) to add as 'agent'")
     parser.add_argument("--first-seed", type=int, default=0, help="seeds first..first+episodes")
     args = parser.parse_args()

@@ -2,12 +2,14 @@
 towards ``uniform``, each against ``uniform`` on the same seeds (``docs/agents.md``, *Where to
 rest*).
 
-Two sweeps, each printing paired ratios (censored mean pictures to 99 %, mean energy to 99 %)
+Three sweeps, each printing paired ratios (censored mean pictures to 99 %, mean energy to 99 %)
 with 95 % bootstrap intervals (:func:`baselines.statistics.paired_ratio`):
 
 * ``thresholds``: ``RestWhenSure(uniform, sure)`` for each ``--sure`` on the named evaluation
   conditions (:func:`benchmarks.agent_conditions.evaluation_conditions`), seeds from
   ``--first-seed`` (default 910000: never an evaluation, validation or training seed);
+* ``probes``: ``RestWhenSure(uniform, sure, probe)`` for each ``--probe`` (0: a rest that never
+  probes) at the first ``--sure``, on the named conditions, seeds as for ``thresholds``;
 * ``scaled``: the bundled agent's linear weights times each ``--scale`` (0: ``uniform``), at rest
   at ``--sure``, on the validation condition (:func:`agents.evaluation.validate_against_uniform`:
   14 robots, free and swarm, seeds 900000 and up); needs the ``rl`` extra.
@@ -16,18 +18,23 @@ Usage::
 
     python -m benchmarks.rest_sweep thresholds --conditions "free N=30" --episodes 60 \\
         --sure 0.999 0.9999 0.99999
+    python -m benchmarks.rest_sweep probes --conditions "free N=30" --episodes 60 --sure 0.9999 \\
+        --probe 0 3 5
     python -m benchmarks.rest_sweep scaled --episodes 60 --sure 0.9999 --scale 0 0.5 1
 """
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Mapping
 from functools import partial
+from typing import Any
 
 import numpy as np
 
 from agents.evaluation import censored, play, validate_against_uniform
-from baselines.excitations.rest import uniform_rest
+from baselines.excitations import Excitation
+from baselines.excitations.rest import RestWhenSure, uniform_rest
 from baselines.excitations.uniform import UniformChoice
 from baselines.statistics import paired_ratio
 from benchmarks.agent_conditions import evaluation_conditions
@@ -37,23 +44,47 @@ PICTURES = 30
 VALIDATION_PICTURES = 12
 
 
-def thresholds(conditions: list[str], sures: list[float], episodes: int, first: int) -> None:
-    """Print ``uniform-rest`` at each belief of ``sures`` against ``uniform``."""
+def against_uniform(
+    conditions: list[str],
+    makers: Mapping[str, Callable[[], Excitation]],
+    episodes: int,
+    first: int,
+) -> None:
+    """Print each of ``makers`` against ``uniform`` on each condition, paired on the seeds."""
     seeds = range(first, first + episodes)
     for name in conditions:
-        config, condition, budget = evaluation_conditions(PICTURES)[name]
-        runs = {}
-        for sure in [None, *sures]:
-            make = UniformChoice if sure is None else partial(uniform_rest, sure)
-            results = play(config, condition, budget, make, seeds, PICTURES)
-            runs[sure] = np.array([censored(r, PICTURES) for r in results], np.float64)
-        base = runs[None]
+        task = evaluation_conditions(PICTURES)[name]
+
+        def run(make: Callable[[], Excitation], task: tuple[Any, str, float] = task) -> np.ndarray:
+            results = play(*task, make, seeds, PICTURES)
+            return np.array([censored(r, PICTURES) for r in results], np.float64)
+
+        base = run(UniformChoice)
         print(f"{name}: uniform {base[:, 0].mean():.2f} pictures, {base[:, 1].mean():.2f} m")
-        for sure in sures:
-            got = runs[sure]
+        for label, make in makers.items():
+            got = run(make)
             pictures = paired_ratio(got[:, 0], base[:, 0])
             energy = paired_ratio(got[:, 1], base[:, 1])
-            print(f"  rest at {sure}: pictures {pictures}, energy {energy}", flush=True)
+            print(f"  {label}: pictures {pictures}, energy {energy}", flush=True)
+
+
+def thresholds(conditions: list[str], sures: list[float], episodes: int, first: int) -> None:
+    """Print ``uniform-rest`` at each belief of ``sures`` against ``uniform``."""
+    makers = {f"rest at {sure}": partial(uniform_rest, sure) for sure in sures}
+    against_uniform(conditions, makers, episodes, first)
+
+
+def probes(
+    conditions: list[str], sure: float, probes: list[int], episodes: int, first: int
+) -> None:
+    """Print ``uniform-rest`` at ``sure`` probing every ``probe`` pictures (0: never) against
+    ``uniform``."""
+
+    def maker(probe: int | None) -> Callable[[], Excitation]:
+        return lambda: RestWhenSure(UniformChoice(), sure, probe)
+
+    makers = {f"rest at {sure}, probe {probe or 'never'}": maker(probe or None) for probe in probes}
+    against_uniform(conditions, makers, episodes, first)
 
 
 def scaled(scales: list[float], sure: float, episodes: int) -> None:
@@ -75,15 +106,18 @@ def scaled(scales: list[float], sure: float, episodes: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("sweep", choices=["thresholds", "scaled"])
+    parser.add_argument("sweep", choices=["thresholds", "probes", "scaled"])
     parser.add_argument("--conditions", nargs="+", default=["free N=30", "free N=100"])
     parser.add_argument("--sure", type=float, nargs="+", default=[0.999, 0.9999, 0.99999])
     parser.add_argument("--scale", type=float, nargs="+", default=[0.0, 0.25, 0.5, 0.75, 1.0])
+    parser.add_argument("--probe", type=int, nargs="+", default=[0, 3])
     parser.add_argument("--episodes", type=int, default=60)
     parser.add_argument("--first-seed", type=int, default=910_000)
     args = parser.parse_args()
     if args.sweep == "thresholds":
         thresholds(args.conditions, args.sure, args.episodes, args.first_seed)
+    elif args.sweep == "probes":
+        probes(args.conditions, args.sure[0], args.probe, args.episodes, args.first_seed)
     else:
         scaled(args.scale, args.sure[0], args.episodes)
 

@@ -48,3 +48,11 @@ def test_a_generated_option_reaches_the_config_and_bad_values_are_named(tmp_path
     assert bad.returncode != 0
     assert "gamma" in bad.stderr
     assert not (tmp_path / "s").exists()
+
+
+def test_the_train_budget_default_is_the_one_duty_budget() -> None:
+    """``TrainConfig.budget`` spells its default out (the CLI reads defaults from the source
+    without importing it); it must stay the one definition in ``baselines``."""
+    from baselines.excitations.swarm import DUTY_BUDGET
+
+    assert TrainConfig().budget == DUTY_BUDGET

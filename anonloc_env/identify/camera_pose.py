@@ -28,8 +28,9 @@ unknown to the others but bounded and of zero mean over many robots. So, at each
    and on its distance from the set point, both from the hover's processes; the pairs'
    spreads are set to their own residuals (a robust scale, apart for the robots that kept a
    heading and the others), and a pair whose residual says it is a wrong match, a false positive
-   or a robot crossing the edge of the view is down-weighted (Cauchy); matched again and
-   refitted once.
+   or a robot crossing the edge of the view is down-weighted (Cauchy); matched again through
+   the fit and refitted until the matches hold (a turn or a zoom moves the rows far from the
+   centre by more than the shift that the first matches come from).
 
 Its error is what the robots' unknown displacements leave: the fit's posterior spread, at each
 picture, from its own residuals, widened by the measured :data:`ERROR_FACTOR`
@@ -77,6 +78,10 @@ MIN_PAIRS = 4
 SCALE_PRIOR_PAIRS = 8.0
 #: Weight of the newest picture in the running robust scales (an exponential average).
 SCALE_MEMORY = 0.2
+#: Most rounds of matching and fitting a picture: it is matched again through each fit until
+#: the matches hold (a turn or zoom of the camera moves the rows far from the centre by more
+#: than a robot's spacing, so the first matches, from a shift alone, are wrong there).
+MATCH_ROUNDS = 6
 #: Median length of a two-dimensional standard Gaussian vector: ``sqrt(2 ln 2)``.
 RAYLEIGH_MEDIAN = math.sqrt(2.0 * math.log(2.0))
 
@@ -284,14 +289,18 @@ class Registration:
         self, rows: np.ndarray, guess: tuple[np.ndarray, np.ndarray, np.ndarray]
     ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], float, list[float | None]]:
         """The transform of ``rows`` to the previous rows' places ``guess`` (coarse shift, then
-        matched and fitted twice), its pairs, its stated error and its robust scales."""
+        matched and fitted until the matches hold, at most ``MATCH_ROUNDS`` times), its
+        pairs, its stated error and its robust scales."""
         transform = self.transform.copy()
         transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
         pairs = (np.zeros(0, np.int64), np.zeros(0, np.int64))
         error = 0.0
         scales: list[float | None] = [None, None]
-        for _ in range(2):
-            pairs = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
+        for round_ in range(MATCH_ROUNDS):
+            matched = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
+            if round_ and _same(matched, pairs):  # the matches hold: the fit is done
+                break
+            pairs = matched
             transform, error, scales = self._fit(rows[:, :2], pairs, guess, transform)
         return transform, pairs, error, scales
 
@@ -477,6 +486,13 @@ def _shrunk(sigma: np.ndarray, directed: np.ndarray, running: list[float | None]
             mixed = SCALE_PRIOR_PAIRS * before**2 + count * np.square(sigma[group])
             out[group] = np.sqrt(mixed / (SCALE_PRIOR_PAIRS + count))
     return out
+
+
+def _same(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Whether two sets of pairs (each sorted as ``Registration._match`` gives) are equal."""
+    return bool(
+        len(a[0]) == len(b[0]) and np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    )
 
 
 def _best(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:

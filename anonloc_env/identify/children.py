@@ -22,7 +22,7 @@ from anonloc_env.identify import fused_calls, kernels
 from anonloc_env.identify.arrays import group_starts, rank_in_group
 from anonloc_env.identify.gate import Gate, uniform_gate
 from anonloc_env.identify.likelihood import Pairs, Scoring, children
-from anonloc_env.identify.model import GATE_SIGMAS, push_isotropic
+from anonloc_env.identify.model import GATE_SIGMAS, push_isotropic, ring_loglik_bound
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import expand_ranges, pairs_within_each
 from anonloc_env.odometry import Interval
@@ -32,6 +32,9 @@ from anonloc_env.odometry import Interval
 MISSED_PER_ROBOT = 32
 #: Candidates of the anchored tracks scored per block (whole robots, about this many).
 ANCHORED_BLOCK = 65536
+#: Nats added to a candidate's bound before it is compared with its robot's floor (rounding,
+#: and the likelihood's own approximations): a margin, never a change of what is kept.
+BOUND_SLACK = 1.0
 
 
 class Builder(NamedTuple):
@@ -132,11 +135,18 @@ class Builder(NamedTuple):
         return fused_calls.merge_by_robot(fast, slow)
 
     def from_uniform(
-        self, live: np.ndarray, pairs: Pairs, dist: np.ndarray, var_d: np.ndarray
+        self,
+        live: np.ndarray,
+        pairs: Pairs,
+        dist: np.ndarray,
+        var_d: np.ndarray,
+        floor: np.ndarray | None = None,
     ) -> list[Tracks]:
         """Anchor the uniform weight of robots ``live``: every pair whose length ``dist`` fits
         its motion (the fast first leg's tracks, then the general path's, each grouped by
-        robot)."""
+        robot). ``floor``: each robot's log weight below which a child would be pruned anyway
+        (from its other children; None: not known): the general path drops the candidates whose
+        bound is below it before scoring them."""
         model, interval, pix_var = self.scoring.model, pairs.interval, pairs.pix_var
         s_low, s_high = model.scale_bounds
         rho0 = np.hypot(*interval.d[live].T)
@@ -174,13 +184,21 @@ class Builder(NamedTuple):
                 return out
             live, start, counts = live[~fused], start[~fused], counts[~fused]
         pick = by_length[expand_ranges(start, counts)]
-        out.append(self._uniform_children(np.repeat(live, counts), pick, pairs))
+        slot = np.repeat(live, counts)
+        out.append(self._uniform_children(slot, pick, pairs, dist, floor))
         return out
 
-    def _uniform_children(self, slot: np.ndarray, pick: np.ndarray, pairs: Pairs) -> Tracks:
+    def _uniform_children(
+        self,
+        slot: np.ndarray,
+        pick: np.ndarray,
+        pairs: Pairs,
+        dist: np.ndarray,
+        floor: np.ndarray | None,
+    ) -> Tracks:
         """The uniform weight of robot ``slot[k]`` anchored at pair ``pick[k]``, by the general
         path: a parent track at the pair's first row, extended by
-        :func:`~anonloc_env.identify.likelihood.children`."""
+        ``likelihood.children`` (those whose bound reaches ``floor``, where given)."""
         prev, rows, i_pair, j_pair, interval, pix_var, log_bg = pairs
         model, theta_var = self.scoring.model, self.scoring.theta_var
         keep = uniform_gate(
@@ -189,6 +207,13 @@ class Builder(NamedTuple):
         pick, slot = pick[keep], slot[keep]
         p_row = i_pair[pick]
         bg = self._link_bg(p_row, j_pair[pick], log_bg)
+        if floor is not None and model.scale is not None and not model.orientation:
+            reach = self._ring_bound(slot, p_row, dist[pick], pairs) - bg >= floor[slot]
+            if not reach.all():
+                keep = np.flatnonzero(reach)
+                pick, slot, p_row = pick[keep], slot[keep], p_row[keep]
+                if isinstance(bg, np.ndarray):  # per link (the others persist)
+                    bg = bg[keep]
         known = model.scale is not None
         parent = Tracks.fresh(
             slot,
@@ -202,6 +227,26 @@ class Builder(NamedTuple):
             p_ss=0.0 if known else np.inf,
         )
         return children(parent, rows, j_pair[pick], interval, pix_var, bg, self.scoring)
+
+    def _ring_bound(
+        self, slot: np.ndarray, p_row: np.ndarray, r: np.ndarray, pairs: Pairs
+    ) -> np.ndarray:
+        """An upper bound of the log weight (less the link's background) of the uniform weight's
+        child of robot ``slot`` from row ``p_row`` along a pair ``r`` long, when the heading is
+        not detected and the scale is known: the ring likelihood of ``score_cases`` (case A,
+        the variance it takes for a track just anchored) bounded by ``ring_loglik_bound``,
+        plus ``BOUND_SLACK``."""
+        model, interval, pix_var = self.scoring.model, pairs.interval, pairs.pix_var
+        assert model.scale is not None
+        s = model.scale
+        var_d, _ = interval.variances(model.odometry_noise)
+        rho = np.hypot(interval.d[:, 0], interval.d[:, 1])
+        var = 2.0 * pix_var + s**2 * var_d + (model.scale_spread * s * rho) ** 2
+        if interval.push is not None:
+            var = var + s**2 * push_isotropic(interval, model)
+        ll = ring_loglik_bound(r, s * rho[slot], var[slot])
+        prior = self.prior.uniform[slot] + self._bias(p_row)
+        return prior + self.scoring.log_pd + ll + BOUND_SLACK
 
     def missed(
         self, tracks: Tracks, interval: Interval, pix_var: float, floor: np.ndarray

@@ -226,7 +226,9 @@ class Identifier:
         live = np.flatnonzero(np.isfinite(self.uniform))
         anchored_uniform: list[Tracks] = []
         if len(live) and len(i_pair):
-            anchored_uniform = build.from_uniform(live, pairs, dist, var_d)
+            # The tracks' children set a floor the uniform weight's must reach (see children).
+            floor = self._prune_floor(parts) if parts else None
+            anchored_uniform = build.from_uniform(live, pairs, dist, var_d, floor)
         # 3. Every explicit track may be missed in the new picture. A continuation more than
         # PRUNE_NATS below its robot's best child would be pruned at once: it is not built.
         if len(tracks):

@@ -14,6 +14,10 @@ from baselines.steps import BeliefView, Step
 
 #: Jitter of the ``swarm`` excitation when named without one.
 SWARM_JITTER = 0.05
+#: The share of the robot's limits ``v_max`` and ``omega_max`` a robot's own deviation may use on
+#: swarm duty when none is given (:class:`SwarmDuty`): the one definition of the default budget
+#: that the agent's spec, its training, the conditions, the limits and the benchmarks read.
+DUTY_BUDGET = 0.2
 
 
 class SwarmMotion(BumpEscape):
@@ -99,7 +103,9 @@ class SwarmDuty(Excitation):
         common_seed: seeds the shared stream (robots of one episode must share it).
     """
 
-    def __init__(self, deviation: Excitation, budget: float = 0.2, common_seed: int = 0) -> None:
+    def __init__(
+        self, deviation: Excitation, budget: float = DUTY_BUDGET, common_seed: int = 0
+    ) -> None:
         super().__init__()
         if not 0.0 <= budget <= 1.0:
             raise ValueError(f"budget must be in [0, 1], got {budget}")

@@ -1,0 +1,84 @@
+"""The uniform weight's candidates dropped before they are scored (their bound below their
+robot's floor) are those the identifier would have pruned anyway: same tracks to the bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import anonloc_env
+import baselines
+from anonloc_env.identify import children as children_module
+from anonloc_env.identify import likelihood
+from anonloc_env.identify.model import ring_loglik, ring_loglik_bound
+from anonloc_env.identify.tracks import FIELDS
+from anonloc_env.rewards import EnergyCost
+
+
+def test_ring_bound_is_above_the_ring_likelihood_and_close_for_long_rings() -> None:
+    rho = np.geomspace(1e-3, 1e3, 61)
+    r = np.linspace(0.0, 1.2e3, 241)
+    var = np.geomspace(1e-2, 1e2, 9)
+    rr, pp, vv = (a.ravel() for a in np.meshgrid(r, rho, var, indexing="ij"))
+    exact, bound = ring_loglik(rr, pp, vv), ring_loglik_bound(rr, pp, vv)
+    assert np.all(bound >= exact)
+    long_ring = rr * pp / vv > 100.0
+    assert long_ring.sum() > 1000
+    assert np.all(bound[long_ring] - exact[long_ring] < 0.2)
+
+
+def _snapshots(preset: str, n: int, pictures: int) -> tuple[list[dict[str, np.ndarray]], int]:
+    """The identifier's tracks after each of a ``bayes`` team's first ``pictures`` pictures
+    (N robots at 1 per m^2, no headings, ``distinct`` motion), and how many candidates the
+    general path scored."""
+    side = math.sqrt(n)
+    camera = {"pixel_noise": 1.0, "orientation": False}
+    config = anonloc_env.make_config(
+        preset, n_robots=n, arena_size=(side, side), camera=camera, max_cycles=4000
+    )
+    env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
+    team = baselines.make_team("bayes", env, excitation="distinct")
+    identifier = team.localizer.identifier
+    update, steps = identifier.update, []
+
+    def snapshot(*args, **kwargs):  # type: ignore[no-untyped-def]  # a spy
+        update(*args, **kwargs)
+        steps.append({f: np.array(getattr(identifier.tracks, f)) for f in FIELDS})
+        steps[-1]["unanchored"] = identifier.unanchored.copy()
+
+    identifier.update = snapshot
+    scored = [0]
+    general = likelihood.children
+
+    def counted(parent, *args, **kwargs):  # type: ignore[no-untyped-def]  # a spy
+        scored[0] += len(parent)
+        return general(parent, *args, **kwargs)
+
+    children_module.children = counted
+    try:
+        observations, _ = env.reset(seed=3)
+        team.reset(np.random.SeedSequence(3).spawn(n))
+        agents = env.possible_agents
+        while len(steps) < pictures and env.agents:
+            actions = team.act([observations[a] for a in agents])
+            observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
+    finally:
+        children_module.children = general
+    return steps, scored[0]
+
+
+@pytest.mark.parametrize("preset", ["drone-hover", "drone-windy", "default"])
+def test_dropping_candidates_below_the_floor_changes_no_track(
+    preset: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with_bound, fewer = _snapshots(preset, 64, 6)
+    monkeypatch.setattr(children_module, "BOUND_SLACK", math.inf)  # nothing dropped
+    without, every = _snapshots(preset, 64, 6)
+    assert len(with_bound) == len(without) == 6
+    for a, b in zip(with_bound, without, strict=True):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    if preset != "default":  # the robots' chance to come back at the edges keeps many
+        assert fewer < 0.8 * every
