@@ -1,11 +1,10 @@
 """Decisions from the identifier's beliefs: decide at ``threshold``; optionally hold a decision
 through a dip down to ``keep``, and take no new decision while jammed.
 
-Plainly (``keep = threshold``, no ``settle``) a robot is decided exactly while its top belief is
-at least ``threshold`` (0.99). Two rules change it (issue 23, sixth round; ``docs/crowds.md``
-measures each alone and both together); ``bayes`` takes both in a crowd (:func:`crowd_rule`:
-more than one robot per m^2, on the clean pictures where the contact model is on) and the plain
-rule elsewhere, so open space and the paper's experiments decide as before, bit for bit:
+By default (``keep = threshold``, no ``settle``) a robot is decided exactly while its top belief
+is at least ``threshold`` (0.99): ``bayes``'s rule. Two options change it (issue 23, sixth round;
+``docs/crowds.md`` measures each alone and both together on the crowded grid, and says why
+neither is the default):
 
 * **hold** (``keep < threshold``): in a crowd the belief of a decided robot pressed against
   others dips below the threshold and comes back, its own row still on top (the contact model's
@@ -24,32 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from anonloc_env.config import EnvConfig
-from anonloc_env.identify import Identifier, SensorModel
+from anonloc_env.identify import Identifier
 from anonloc_env.identify.lineage import continuations, decided_tracks
 from anonloc_env.identify.tracks import Tracks
-
-#: ``keep`` in a crowd: on the tuning grid (1 to 6 robots per m^2, seeds 700 and up) 0.9 held
-#: most dips (0.95 left the share falling by more than a point in twice as many cells).
-CROWD_KEEP = 0.9
-#: ``settle`` in a crowd: with the hold alone confident decisions wrong rose above 0.2 % in 3
-#: cells of the tuning grid (robots jammed for tens of intervals); past 6 intervals pushed in a
-#: row none did.
-CROWD_SETTLE = 6
-#: Robots per m^2 above which a team is in a crowd (the agents' evaluation conditions, and
-#: everything before issue 23, have at most one).
-CROWD_DENSITY = 1.0
-
-
-def crowd_rule(config: EnvConfig) -> tuple[float | None, int | None]:
-    """``(keep, settle)`` for a team of ``config``: :data:`CROWD_KEEP` and :data:`CROWD_SETTLE`
-    above :data:`CROWD_DENSITY` robots per m^2 where the identifier's contact model is on (clean
-    pictures), else ``(None, None)``: the plain threshold."""
-    density = config.n_robots / (config.arena_size[0] * config.arena_size[1])
-    contact = SensorModel.from_config(config).crowd_push_share is not None
-    if contact and density > CROWD_DENSITY * (1.0 + 1e-9):
-        return CROWD_KEEP, CROWD_SETTLE
-    return None, None
 
 
 class Decisions:

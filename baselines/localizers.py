@@ -23,7 +23,7 @@ from anonloc_env.identify import Identifier, Interval, SensorModel
 from anonloc_env.identify.camera_pose import Registration
 from anonloc_env.rewards import InformationGain
 from baselines import angular, linear, matching, motion
-from baselines.decisions import Decisions, crowd_rule
+from baselines.decisions import Decisions
 
 MODES = ("corrected", "faithful")
 #: Chi-square thresholds at a false-rejection rate of 1e-4, by degrees of freedom.
@@ -335,13 +335,6 @@ class Motion3Localizer(Localizer):
         self._set_from_chi2(chi2, dof=2, margin=CHI2_MARGIN)
 
 
-def _number(name: str, value: object, kind: type) -> Any:
-    """``value`` (None, or a number of ``kind``) as given for ``name``, or a clear error."""
-    if value is None or (isinstance(value, int | float) and not isinstance(value, bool)):
-        return None if value is None else kind(value)
-    raise ValueError(f"{name} must be a number, None or 'crowd', got {value!r}")
-
-
 class BayesLocalizer(Localizer):
     """The Bayesian identifier (``anonloc_env.identify``) with a decision threshold.
 
@@ -359,12 +352,10 @@ class BayesLocalizer(Localizer):
         scale_known: False estimates the camera scale per hypothesis.
         share: read the env's reward's identifier where it is the same (see above).
         keep: belief down to which a decided robot keeps its decision while its belief dips
-            along the track it decided on (``baselines.decisions``); None: ``threshold``, no
-            hold; ``"crowd"`` (the default): the crowd's (0.9 above one robot per m^2 on clean
-            pictures, else none; ``baselines.decisions.crowd_rule``).
+            along the track it decided on (``baselines.decisions``); None (the default):
+            ``threshold``, no hold.
         settle: intervals pushed in a row past which a robot takes no new decision
-            (``baselines.decisions``); None: no limit; ``"crowd"`` (the default): the crowd's
-            (6, where ``keep`` is 0.9 above).
+            (``baselines.decisions``); None (the default): no limit.
     """
 
     needs = 1
@@ -377,17 +368,12 @@ class BayesLocalizer(Localizer):
         threshold: float = 0.99,
         scale_known: bool = True,
         share: bool = True,
-        keep: float | str | None = "crowd",
-        settle: int | str | None = "crowd",
+        keep: float | None = None,
+        settle: int | None = None,
     ) -> None:
         if mode != "corrected":
             raise ValueError("the Bayesian identifier has no faithful mode; use mode='corrected'")
-        crowd_keep, crowd_settle = crowd_rule(config)
-        self.decisions = Decisions(
-            threshold,
-            crowd_keep if keep == "crowd" else _number("keep", keep, float),
-            crowd_settle if settle == "crowd" else _number("settle", settle, int),
-        )
+        self.decisions = Decisions(threshold, keep, settle)
         self.threshold = threshold
         self.scale_known = scale_known
         self.share = share

@@ -139,15 +139,13 @@ def without_escape(
     return {**extra, **{name: functools.partial(old, name) for name in names}}
 
 
-#: Decision rules scored beside ``bayes``'s own (``--rules``; ``baselines.decisions``):
-#: ``(keep, settle)``; in a crowd ``bayes`` holds at 0.9 and settles after 6 intervals
-#: (``baselines.decisions.crowd_rule``), and these are the plain threshold and each part alone.
-#: The decisions never reach the motion (every excitation reads beliefs), so each rule is
-#: scored on the very episodes ``bayes`` plays.
+#: Decision rules scored beside ``bayes``'s threshold (``--rules``; ``baselines.decisions``):
+#: ``(keep, settle)``. The decisions never reach the motion (every excitation reads beliefs),
+#: so each rule is scored on the very episodes ``bayes`` plays.
 RULES: dict[str, tuple[float | None, int | None]] = {
-    "plain": (None, None),
     "hold 0.9": (0.9, None),
     "settle 6": (None, 6),
+    "hold 0.9, settle 6": (0.9, 6),
 }
 
 

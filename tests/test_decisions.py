@@ -4,7 +4,6 @@ a decided track's best continuation is the robot's own row; no new decision whil
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from pathlib import Path
 
@@ -15,7 +14,7 @@ import anonloc_env
 import baselines
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
-from baselines.decisions import Decisions, crowd_rule
+from baselines.decisions import Decisions
 from baselines.runner import run_episode
 from benchmarks.crowds import RULES, THRESHOLD, load_recorded, play, score_cell
 from benchmarks.excitations import scenario
@@ -135,25 +134,17 @@ def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> 
         Decisions(**kwargs)  # type: ignore[arg-type]  # the bad values are the point
 
 
-def test_bayes_holds_and_settles_in_a_crowd_only() -> None:
-    """``bayes`` takes the crowd's rule above one robot per m^2 on clean pictures (hold at 0.9,
-    settle after 6 intervals) and the plain threshold at one per m^2 or with clutter; both can
-    be asked for by hand, and a bad value is refused by name."""
-    crowd = anonloc_env.AnonLocEnv(scenario(30, 8, 4.0), reward_fn=anonloc_env.EnergyCost())
-    team = baselines.make_team("bayes", crowd, excitation="greedy")
+def test_bayes_takes_the_rules_when_asked() -> None:
+    """``make_team("bayes", env, keep=0.9, settle=6)`` decides by those rules on the env's
+    identifier; by default a team's decisions are the plain threshold's."""
+    env = anonloc_env.AnonLocEnv(scenario(30, 8, 4.0), reward_fn=anonloc_env.EnergyCost())
+    team = baselines.make_team("bayes", env, excitation="greedy", keep=0.9, settle=6)
     assert (team.localizer.decisions.keep, team.localizer.decisions.settle) == (0.9, 6)
-    plain = baselines.make_team("bayes", crowd, excitation="greedy", keep=None, settle=None)
-    assert plain.localizer.decisions.plain
-    result = run_episode(crowd, team, 700, max_pictures=8)
+    assert baselines.make_team("bayes", env, excitation="greedy").localizer.decisions.plain
+    result = run_episode(env, team, 700, max_pictures=8)
     assert any(r.estimate >= 0 for r in result.records)
-    one = anonloc_env.AnonLocEnv(scenario(30, 8, 1.0), reward_fn=anonloc_env.EnergyCost())
-    assert baselines.make_team("bayes", one, excitation="greedy").localizer.decisions.plain
-    cluttered = dataclasses.replace(
-        crowd.config, camera=dataclasses.replace(crowd.config.camera, p_miss=0.05)
-    )
-    assert crowd_rule(cluttered) == (None, None)
-    with pytest.raises(ValueError, match="settle"):
-        baselines.make_team("bayes", crowd, excitation="greedy", settle="often")
+    with pytest.raises(ValueError, match="keep"):
+        baselines.make_team("bayes", env, excitation="greedy", keep=0.999)
 
 
 def test_the_benchmark_scores_every_rule_on_the_same_episode() -> None:
