@@ -82,7 +82,7 @@ class Played:
         top: ``(N,)`` each robot's top belief at each scored picture.
         top_row: ``(N,)`` the row of that top belief.
         rules: each other decision rule's ``(N,)`` decisions at each scored picture (see
-            :data:`RULES`).
+            ``RULES``).
     """
 
     result: EpisodeResult
@@ -158,7 +158,7 @@ def play(
     rules: Sequence[str] = (),
 ) -> Played:
     """Play one episode of ``bayes`` with excitation ``name``, noting poses and top beliefs (and
-    the decisions of ``rules``, names of :data:`RULES`)."""
+    the decisions of ``rules``, names of ``RULES``)."""
     played = Played(EpisodeResult(seed, env.config.n_robots, []))
     team = baselines.make_team("bayes", env, excitation=make_excitation(name, extra or {}))
     beliefs = team.beliefs
@@ -317,7 +317,7 @@ def score_cell(episodes: Sequence[Played]) -> dict[str, Any]:
 
 
 def score_rule(episodes: Sequence[Played], rule: str) -> dict[str, Any]:
-    """The measures of :func:`score_cell` for the decisions of ``rule`` (``Played.rules``)."""
+    """The measures of ``score_cell`` for the decisions of ``rule`` (``Played.rules``)."""
     censored, decided, wrong, shares, reached = [], 0, 0, [], 0
     for p in episodes:
         estimates = np.array(p.rules[rule])  # (pictures, N)

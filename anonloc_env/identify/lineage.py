@@ -1,7 +1,7 @@
 """Where a robot's decided track went: the row of the newest picture that continues it best.
 
 A robot decided at one picture (its top row at belief 0.99) keeps, for the next, the state of its
-heaviest track at that row (:func:`decided_tracks`). At the next picture :func:`continuations`
+heaviest track at that row (``decided_tracks``). At the next picture ``continuations``
 extends that one track to every row by the identifier's own likelihood (the interval as the model
 took it, pushes and all) and names the row it fits best. Where the robot's top row is that row,
 its belief continues the decided track; where it is another, the belief moved to another lineage
