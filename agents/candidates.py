@@ -37,7 +37,13 @@ from agents.crowd_features import crowd_columns
 from agents.spec import check_features
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
-from baselines.active import CandidateSet, GreedyIdentification, GreedySettings, Hypotheses
+from baselines.active import (
+    CandidateSet,
+    GreedyIdentification,
+    GreedySettings,
+    Hypotheses,
+    ScoringJob,
+)
 from baselines.steps import BeliefView, Step
 
 
@@ -68,6 +74,10 @@ class CandidateChooser(GreedyIdentification):
         self.cset: CandidateSet | None = None
         self.observation = empty_observation(0, candidates, (len(found[0]), len(found[1])))
         self.decided = False
+        self.defer = False
+        """When True, ``on_picture`` prepares the scoring job and leaves its expected entropy to
+        the caller, who hands it to ``scored`` (the VecEnv scores all its copies together)."""
+        self._waiting: tuple[Step, BeliefView, Any, ScoringJob | None] | None = None
         self._view: tuple[EnvConfig, tuple[float, float, float, float]] | None = None
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
@@ -77,18 +87,41 @@ class CandidateChooser(GreedyIdentification):
             self.n, self.candidates, (len(self.names[0]), len(self.names[1]))
         )
         self.decided = False
+        self._waiting = None
 
     def on_picture(self, step: Step, view: BeliefView) -> None:
         super().on_picture(step, view)
+        pending = self._pending
+        job = self.prepare()
+        self._waiting = (step, view, pending, job)
+        if not self.defer:
+            self.scored(None if job is None else job.entropy())
+
+    @property
+    def job(self) -> ScoringJob | None:
+        """The scoring job of the picture taken in last, while its expected entropies are
+        awaited (``defer``); None when nothing is awaited or nothing was scored."""
+        return None if self._waiting is None else self._waiting[3]
+
+    @property
+    def waiting(self) -> bool:
+        """Whether a picture waits for ``scored`` (only while ``defer`` is set)."""
+        return self._waiting is not None
+
+    def scored(self, entropy: np.ndarray | None) -> None:
+        """Finish the picture taken in last with its job's expected ``entropy`` ``(R, C)``
+        (None when its job is None): the candidate set, the observation and ``on_scored``."""
+        assert self._waiting is not None, "no picture waits for its scores"
+        step, view, pending, job = self._waiting
+        self._waiting = None
+        cset = None if job is None or entropy is None else job.finish(entropy)
         model = view.model
         config = view.config
-        pending = self._pending
-        cset = self.score()
         belief = np.asarray(view.belief, np.float64)
-        entropy, largest, absent = belief_context(belief, None if cset is None else cset.now).T
+        now, largest, absent = belief_context(belief, None if cset is None else cset.now).T
         robot = config.robot
         context = {
-            "entropy_now": entropy,
+            "entropy_now": now,
             "largest_belief": largest,
             "absent": absent,
             "rows": np.full(self.n, math.log(len(step.rows) + 1.0) / math.log(1001.0)),

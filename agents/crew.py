@@ -22,8 +22,9 @@ from agents.candidate_features import true_belief, true_rows
 from agents.candidates import CandidateChooser
 from agents.spec import AgentSpec
 from anonloc_env.actions import to_commands
-from anonloc_env.env import AnonLocEnv
+from anonloc_env.env import AnonLocEnv, ArrayStep
 from anonloc_env.rewards import energy
+from baselines.active import ScoringJob
 from baselines.excitations import SwarmDuty
 from baselines.localizers import BayesLocalizer
 from baselines.policies import Team
@@ -71,6 +72,7 @@ class Crew:
         self.chooser = CandidateChooser(spec.candidates, features=spec.features)
         self.team = Team(config, self.localizer, spec.excitation(self.chooser))
         self._step: Step | None = None
+        self._advanced: tuple[ArrayStep, np.ndarray, np.ndarray, int] | None = None
         self._belief_true = np.zeros(self.n)
 
     def reset(self, seed: int | None) -> dict[str, np.ndarray]:
@@ -89,25 +91,51 @@ class Crew:
     def step(self, actions: np.ndarray) -> StepResult:
         """Drive each robot's chosen candidate (``(R,)`` indices) until the next picture (or the
         episode's end); the reward adds up the steps of that interval."""
+        job = self.advance(actions, defer=True)
+        return self.finish(None if job is None else job.entropy())
+
+    def advance(self, actions: np.ndarray, defer: bool = False) -> ScoringJob | None:
+        """``step`` up to the picture. With ``defer`` the candidates of a new picture are
+        prepared but not scored: the returned job's expected entropy goes to ``finish``
+        (``agents.vec.AnonLocVecEnv`` scores all its copies in one call); None when nothing
+        is to be scored."""
         assert self._step is not None, "reset() first"
         self.chooser.decide(np.asarray(actions).reshape(-1))
         reward = np.zeros(self.n)
         spent = np.zeros(self.n)
-        robot, dt = self.config.robot, self.config.dt
-        steps = 0
-        while True:  # the env's arrays, never its per-agent dicts (the same bits)
-            steps += 1
-            v, w = self.team.excitation.commands(self._step, dt)
-            env_actions = self.team.command(v, w)
-            result = self.env.step_arrays(env_actions)
-            spent += energy(self.config, *to_commands(env_actions, robot))
-            reward += result.rewards
-            step = self.team.take(result.seen)
-            self._step = step
-            truncated = result.truncated
-            if step.new_picture or truncated:
-                break
+        dt = self.config.dt
+        sent: list[np.ndarray] = []
+        self.chooser.defer = defer
+        try:
+            while True:  # the env's arrays, never its per-agent dicts (the same bits)
+                v, w = self.team.excitation.commands(self._step, dt)
+                env_actions = self.team.command(v, w)
+                sent.append(env_actions)
+                result = self.env.step_arrays(env_actions)
+                reward += result.rewards
+                step = self.team.take(result.seen)
+                self._step = step
+                if step.new_picture or result.truncated:
+                    break
+        finally:
+            self.chooser.defer = False
+        # Each step's wheel travel, computed for all steps at once, added up step by step.
+        for travel in energy(self.config, *to_commands(np.stack(sent), self.config.robot)):
+            spent += travel
+        self._advanced = (result, reward, spent, len(sent))
+        return self.chooser.job
+
+    def finish(self, entropy: np.ndarray | None = None) -> StepResult:
+        """The decision begun by ``advance``: its picture scored with ``entropy`` (the
+        expected entropy of the job ``advance`` returned; None when it returned None)."""
+        assert self._advanced is not None, "advance() first"
+        result, reward, spent, steps = self._advanced
+        self._advanced = None
+        if self.chooser.waiting:
+            self.chooser.scored(entropy)
         truth = result.true_index
+        step = self._step
+        assert step is not None
         if step.new_picture:
             belief = true_belief(self.localizer.belief, truth)
             reward += self.spec.reward.term(self._belief_true, belief)
@@ -117,7 +145,7 @@ class Crew:
             observation=self.chooser.observation,
             teacher=self.chooser.teacher(),
             reward=reward,
-            truncated=truncated,
+            truncated=result.truncated,
             correct=present & (self.localizer.estimate == truth),
             present=present,
             new_picture=step.new_picture,

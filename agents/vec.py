@@ -16,8 +16,9 @@ What it guarantees (each is tested):
 * **Seeding goes through reset.** ``seed(s)`` (which ``PPO(seed=s)`` calls) gives copy ``k`` the
   ``k``-th child of ``SeedSequence(s)`` at its next reset; afterwards each copy continues its own
   env generator, so two runs with one seed are identical and copies never share random state.
-* **Batched arrays.** Each copy's robots are updated by one vectorised identifier and one
-  vectorised feature computation; the only Python loop is over the K copies.
+* **Batched arrays.** Each copy's robots are updated by one vectorised identifier; the
+  candidates of every robot of every copy are scored in one call
+  (``baselines.active.entropies_together``: the same bits as copy by copy).
 
 Each slot's ``infos`` also carry ``"episode": {"r", "l"}`` at the end of an episode (the format
 of SB3's ``Monitor``, so training logs show returns), and the per-step ground-truth scores
@@ -40,7 +41,9 @@ from agents.crew import Crew
 from agents.spec import AgentSpec
 from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
+from anonloc_env.memory import keep_freed_memory
 from anonloc_env.rewards import EnergyCost
+from baselines.active import entropies_together
 
 
 class AnonLocVecEnv(VecEnv):
@@ -72,6 +75,7 @@ class AnonLocVecEnv(VecEnv):
     ) -> None:
         if not isinstance(n_envs, (int, np.integer)) or isinstance(n_envs, bool) or n_envs < 1:
             raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
+        keep_freed_memory()  # the scoring's and identifier's temporaries reuse memory
         build = make_env or (lambda cfg: AnonLocEnv(cfg, reward_fn=EnergyCost()))
         self.config = config
         self.spec = spec = spec if spec is not None else AgentSpec()
@@ -139,10 +143,17 @@ class AnonLocVecEnv(VecEnv):
         rewards = np.empty(self.num_envs, np.float32)
         dones = np.zeros(self.num_envs, bool)
         infos: list[dict[str, Any]] = []
+        # Every copy up to its picture, then all their candidates scored in one call.
+        jobs = [
+            crew.advance(self._actions[self.starts[k] : self.starts[k + 1]], defer=True)
+            for k, crew in enumerate(self.crews)
+        ]
+        scored = [job for job in jobs if job is not None]
+        entropies = iter(entropies_together(scored))
         for k, crew in enumerate(self.crews):
             first = int(self.starts[k])
             slots = slice(first, int(self.starts[k + 1]))
-            result = crew.step(self._actions[slots])
+            result = crew.finish(None if jobs[k] is None else next(entropies))
             self.control_steps += result.steps
             rewards[slots] = result.reward
             self._returns[slots] += result.reward

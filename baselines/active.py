@@ -87,6 +87,10 @@ class Hypotheses:
 class PredictionGeometry:
     """What the prediction needs besides the hypotheses (image units, seconds).
 
+    Each field is one number for all robots, or (``scale`` to ``p_detect``) an ``(R,)`` array,
+    one per robot, where the robots of several envs are scored together
+    (``entropies_together``).
+
     Attributes:
         scale: image units per metre.
         pixel_var: variance of a detection's ``u`` and ``v``.
@@ -96,11 +100,11 @@ class PredictionGeometry:
         duration: time to the next picture (s).
     """
 
-    scale: float
-    pixel_var: float
-    scale_spread: float
-    clutter: float
-    p_detect: float
+    scale: float | np.ndarray
+    pixel_var: float | np.ndarray
+    scale_spread: float | np.ndarray
+    clutter: float | np.ndarray
+    p_detect: float | np.ndarray
     duration: float
 
 
@@ -126,6 +130,89 @@ class CandidateSet:
     reach: np.ndarray
 
 
+@dataclass(frozen=True)
+class ScoringJob:
+    """One excitation's candidates at one picture, scored up to their expected entropy
+    (``GreedyIdentification.prepare``).
+
+    Attributes:
+        commands: ``(R, C, 2)`` the candidates (as in ``CandidateSet``).
+        hyp: the robots' hypotheses.
+        geo: the prediction's geometry (numbers).
+        own: ``(R, C, 2)`` each candidate's displacement in the robot's frame (m).
+        others: ``(1, S, 2)`` or ``(R, S, 2)`` the other robots' possible displacements (m).
+        spent: ``(R, C)`` each candidate's energy over the interval.
+        ring_samples: points per ring where the heading is unknown.
+    """
+
+    commands: np.ndarray
+    hyp: Hypotheses
+    geo: PredictionGeometry
+    own: np.ndarray
+    others: np.ndarray
+    spent: np.ndarray
+    ring_samples: int
+
+    def entropy(self) -> np.ndarray:
+        """``(R, C)`` the expected entropies (``expected_entropy``)."""
+        return expected_entropy(self.hyp, self.own, self.others, self.geo, self.ring_samples)
+
+    def finish(self, entropy: np.ndarray) -> CandidateSet:
+        """The candidate set, given this job's expected ``entropy`` ``(R, C)``."""
+        weight = self.hyp.weight
+        now = -(weight * np.log(np.maximum(weight, 1e-300))).sum(axis=1)
+        reach = self.geo.scale * np.hypot(self.own[..., 0], self.own[..., 1])
+        return CandidateSet(self.commands, entropy, self.spent, now, reach)
+
+
+def entropies_together(jobs: Sequence[ScoringJob]) -> list[np.ndarray]:
+    """Each job's ``ScoringJob.entropy``, the jobs of one shape (hypotheses, candidates,
+    the others' commands and ring points alike) stacked along the robot axis and computed in
+    one call of ``expected_entropy``, whose geometry is then one number per robot.
+
+    Every operation of ``expected_entropy`` is elementwise along the robot axis or reduces
+    along another, so each robot's values are those of its job's own call, to the bit
+    (``tests/test_active.py`` and ``tests/test_vec.py`` check). K envs then cost a few numpy
+    calls per picture instead of K times as many.
+    """
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for i, job in enumerate(jobs):
+        key = (*job.hyp.weight.shape[1:], *job.own.shape[1:], *job.others.shape[1:])
+        groups.setdefault((*key, job.ring_samples), []).append(i)
+    out: list[np.ndarray] = [np.empty(0)] * len(jobs)
+    for members in groups.values():
+        if len(members) == 1:
+            out[members[0]] = jobs[members[0]].entropy()
+            continue
+        part = [jobs[i] for i in members]
+        sizes = [len(job.own) for job in part]
+        hyp = Hypotheses(
+            *(np.concatenate([getattr(job.hyp, f) for job in part]) for f in _HYPOTHESES)
+        )
+        fields = np.repeat(
+            np.array([[getattr(job.geo, f) for f in _PER_ROBOT] for job in part]), sizes, axis=0
+        )
+        scale, pixel_var, spread, clutter, p_detect = fields.T
+        geo = PredictionGeometry(
+            scale, pixel_var, spread, clutter, p_detect, duration=part[0].geo.duration
+        )
+        own = np.concatenate([job.own for job in part])
+        others = np.concatenate(
+            [
+                np.broadcast_to(job.others, (n, *job.others.shape[1:]))
+                for job, n in zip(part, sizes, strict=True)
+            ]
+        )
+        entropy = expected_entropy(hyp, own, others, geo, part[0].ring_samples)
+        for i, piece in zip(members, np.split(entropy, np.cumsum(sizes)[:-1]), strict=True):
+            out[i] = piece
+    return out
+
+
+_HYPOTHESES = ("weight", "pos", "theta", "theta_var", "known")
+_PER_ROBOT = ("scale", "pixel_var", "scale_spread", "clutter", "p_detect")
+
+
 def expected_entropy(
     hyp: Hypotheses,
     own: np.ndarray,
@@ -146,25 +233,31 @@ def expected_entropy(
     every landing point is the predicted one, so the densities are computed once instead of
     ``ring_samples`` times (:func:`_densities_known`); the result is the same to the bit as the
     general path's (:func:`_densities`), which ``tests/test_active.py`` checks.
+
+    A hypothesis of weight 0 changes no robot's result (it adds exact zeros to every sum), so
+    the hypotheses that weigh 0 for every robot are left out first: most robots soon hold one
+    hypothesis, and the work grows with the square of their number.
     """
+    hyp = _live(hyp)
     s = geo.scale
-    rho = s * np.hypot(own[..., 0], own[..., 1])  # (R, C)
+    rho = _per_robot(s, 2) * np.hypot(own[..., 0], own[..., 1])  # (R, C)
     known = hyp.known[:, :, None]  # (R, K, 1)
     var = (
-        2.0 * geo.pixel_var
-        + (geo.scale_spread * rho[:, None, :]) ** 2
+        2.0 * _per_robot(geo.pixel_var, 3)
+        + (_per_robot(geo.scale_spread, 3) * rho[:, None, :]) ** 2
         + np.where(known, hyp.theta_var[:, :, None], 0.0) * rho[:, None, :] ** 2
         + 1e-9
     )  # (R, K, C)
     cos, sin = np.cos(hyp.theta)[:, :, None], np.sin(hyp.theta)[:, :, None]
-    dx, dy = s * own[:, None, :, 0], s * own[:, None, :, 1]
+    s3 = _per_robot(s, 3)
+    dx, dy = s3 * own[:, None, :, 0], s3 * own[:, None, :, 1]
     mu = hyp.pos[:, :, None, :] + np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
     geometry = (rho, var, mu, s)
     if hyp.known.all():
         collide, mimic, peak = _densities_known(hyp, own, others, geometry, ring_samples)
     else:
         collide, mimic, peak = _densities(hyp, own, others, geometry, ring_samples)
-    base = geo.clutter / geo.p_detect
+    base = _per_robot(geo.clutter / geo.p_detect, 4)
     ratio = (base + collide + mimic[:, None]) / (base + peak[:, :, None])  # (R, K*, K', C)
     k = hyp.weight.shape[1]
     eye = np.eye(k, dtype=bool)[None, :, :, None]
@@ -178,11 +271,28 @@ def expected_entropy(
 Densities = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
+def _live(hyp: Hypotheses) -> Hypotheses:
+    """The hypotheses without those of weight 0 for every robot (all of them if none is left)."""
+    live = hyp.weight.any(axis=0)
+    if live.all() or not live.any():
+        return hyp
+    return Hypotheses(*(getattr(hyp, f)[:, live] for f in _HYPOTHESES))
+
+
+def _per_robot(value: float | np.ndarray, ndim: int) -> float | np.ndarray:
+    """A field of ``PredictionGeometry`` ready to broadcast against an array of ``ndim``
+    axes whose first is the robot's: a number as it is, an ``(R,)`` array (robots of several
+    envs scored together, ``entropies_together``) as ``(R, 1, ...)``."""
+    if np.ndim(value) == 0:
+        return value
+    return np.reshape(value, (-1,) + (1,) * (ndim - 1))
+
+
 def _densities(
     hyp: Hypotheses,
     own: np.ndarray,
     others: np.ndarray,
-    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float | np.ndarray],
     ring_samples: int,
 ) -> Densities:
     """The general path: ``collide`` ``(R, K*, K', C)``, ``mimic`` ``(R, K', C)`` and ``peak``
@@ -200,7 +310,7 @@ def _densities(
     # Heading unknown at h' (of weight > 0: one of weight 0 weighs nothing): the ring's density.
     at = np.nonzero(~hyp.known & (hyp.weight > 0.0))
     if len(at[0]):
-        other_len = s * np.hypot(others[..., 0], others[..., 1])  # (R or 1, S)
+        other_len = _per_robot(s, 2) * np.hypot(others[..., 0], others[..., 1])  # (R or 1, S)
         other_len = np.broadcast_to(other_len, (len(hyp.known), other_len.shape[-1]))
         shape = (len(at[0]), rho.shape[1], other_len.shape[1])  # (Q, C, S)
         ring = ring_loglik(
@@ -208,7 +318,7 @@ def _densities(
             np.broadcast_to(rho[at[0]][:, :, None], shape),
             var[at][:, :, None],
         )
-        mimic[at] = np.exp(ring).mean(axis=-1)
+        mimic[at] = _exp(ring).mean(axis=-1)
     # My own detection's density under the truth: (R, K*, C).
     peak = np.where(
         known, 1.0 / (2.0 * math.pi * var), np.exp(ring_loglik(rho[:, None], rho[:, None], var))
@@ -266,10 +376,10 @@ def _density_at(
     variance ``v2`` where the heading at h' is ``known``, otherwise the ring of radius ``rho``
     around the row ``pos`` (every argument broadcast against the others)."""
     gap = x - mu
-    gauss = np.exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
+    gauss = _exp(-0.5 * (gap[..., 0] ** 2 + gap[..., 1] ** 2) / v2) / (2.0 * math.pi * v2)
     off = x - pos
     r = np.hypot(off[..., 0], off[..., 1])
-    ring = np.exp(ring_loglik(r, np.broadcast_to(rho, r.shape), v2))
+    ring = _exp(ring_loglik(r, np.broadcast_to(rho, r.shape), v2))
     return np.where(known, gauss, ring)
 
 
@@ -277,7 +387,7 @@ def _densities_known(
     hyp: Hypotheses,
     own: np.ndarray,
     others: np.ndarray,
-    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float],
+    geometry: tuple[np.ndarray, np.ndarray, np.ndarray, float | np.ndarray],
     ring_samples: int,
 ) -> Densities:
     """:func:`_densities` where every heading is known: each landing point is ``mu``, so each
@@ -287,17 +397,37 @@ def _densities_known(
     v2 = var[:, None]  # (R, 1, K', C)
     gx = mu[:, :, None, :, 0] - mu[:, None, :, :, 0]
     gy = mu[:, :, None, :, 1] - mu[:, None, :, :, 1]
-    gauss = np.exp(-0.5 * (gx**2 + gy**2) / v2) / (2.0 * math.pi * v2)  # (R, K*, K', C)
+    gauss = _exp(-0.5 * (gx**2 + gy**2) / v2) / (2.0 * math.pi * v2)  # (R, K*, K', C)
     collide = _mean_of_equal(gauss, ring_samples)
     mimic = _mimic_known(own, others, var, s)
     return collide, mimic, 1.0 / (2.0 * math.pi * var)
 
 
-def _mimic_known(own: np.ndarray, others: np.ndarray, var: np.ndarray, s: float) -> np.ndarray:
+def _mimic_known(
+    own: np.ndarray, others: np.ndarray, var: np.ndarray, s: float | np.ndarray
+) -> np.ndarray:
     """``(R, K', C)`` density of "I am h'" where the robot at h' goes, its heading known."""
-    apart = s * np.linalg.norm(own[:, :, None, :] - others[:, None, :, :], axis=-1)  # (R, C, S)
+    # The distance between the displacements, as ``np.linalg.norm`` sums it (the same bits):
+    # (R, C, S).
+    dx = own[:, :, None, 0] - others[:, None, :, 0]
+    dy = own[:, :, None, 1] - others[:, None, :, 1]
+    apart = _per_robot(s, 3) * np.sqrt(dx * dx + dy * dy)
     vs = var[..., None]
-    return (np.exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)).mean(axis=-1)
+    return (_exp(-0.5 * apart[:, None] ** 2 / vs) / (2.0 * math.pi * vs)).mean(axis=-1)
+
+
+#: Where a density's exponent is below this, it is raised to it. numpy's vector ``exp`` takes a
+#: slow path, about 25 times slower per value, for results that underflow (exponents below
+#: about -708), and far-apart hypotheses give many. A density of ``exp(-700)`` (about 1e-304,
+#: over a variance of at least a pixel^2) only ever meets the clutter base (at least 1e-8 per
+#: pixel^2) in a sum, where it is lost below the base's last bit: the expected entropies keep
+#: their bits (``tests/test_active.py`` checks them against the unclamped densities).
+EXP_FLOOR = -700.0
+
+
+def _exp(exponent: np.ndarray) -> np.ndarray:
+    """``exp`` of the exponents, those below ``EXP_FLOOR`` raised to it (in place)."""
+    return np.exp(np.maximum(exponent, EXP_FLOOR, out=exponent), out=exponent)
 
 
 def _mean_of_equal(values: np.ndarray, count: int) -> np.ndarray:
@@ -426,6 +556,13 @@ class GreedyIdentification(Excitation):
         its own generator) and predict what each would tell (the module's model); ``None`` until
         the first picture with a row has been taken in (and after the candidates were scored for
         this picture)."""
+        job = self.prepare()
+        return None if job is None else job.finish(job.entropy())
+
+    def prepare(self) -> ScoringJob | None:
+        """``score`` up to the expected entropy, which the job computes (``entropy``) or
+        which ``entropies_together`` computes for the jobs of several envs in one call. The
+        candidates are drawn here, so the robots' generators advance as in ``score``."""
         deviation = self.following
         cand = self._candidates(deviation)
         if self._pending is None:
@@ -442,12 +579,8 @@ class GreedyIdentification(Excitation):
         others = unicycle(
             bv + self.budget * other[..., 0], bw + self.budget * other[..., 1], geo.duration
         )
-        entropy = expected_entropy(hyp, own, others, geo, st.ring_samples)
         spent = geo.duration * (np.abs(total_v) + turn_cost * np.abs(total_w))
-        weight = hyp.weight
-        now = -(weight * np.log(np.maximum(weight, 1e-300))).sum(axis=1)
-        reach = geo.scale * np.hypot(own[..., 0], own[..., 1])
-        return CandidateSet(cand, entropy, spent, now, reach)
+        return ScoringJob(cand, hyp, geo, own, others, spent, st.ring_samples)
 
     def drive(self, cset: CandidateSet, pick: np.ndarray) -> None:
         """Hold candidate ``pick`` ``(R,)`` of each robot until the next picture."""

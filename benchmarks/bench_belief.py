@@ -9,6 +9,8 @@ Run from the repository root, with an older commit checked out elsewhere::
     python benchmarks/bench_belief.py --old /work/old-main --train 2  # anonloc train, mixed
     python benchmarks/bench_belief.py --old /work/old-main --robots 10 30 100 300 1000 \
         --copies 1 --rounds 1 --growth                                # cost against N
+    python benchmarks/bench_belief.py --profile --robots 30 --copies 4  # where the time goes
+    python benchmarks/bench_belief.py --profile --train 2             # ... in anonloc train
 
 Each measurement is a fresh interpreter (``PYTHONPATH`` set to one checkout or the other) that
 builds the env (``--copies`` copies of the ``default`` scenario with N robots, the ``team``
@@ -87,6 +89,73 @@ print(rollouts * per_rollout / (clock() - start))
 """
 
 
+PROFILE = """
+import sys, time, collections, importlib
+import numpy as np
+clock = time.process_time
+shares = collections.Counter()
+def timed(owner, name, label):
+    function = getattr(owner, name)
+    def wrapper(*args, **kwargs):
+        start = clock()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            shares[label] += clock() - start
+    setattr(owner, name, wrapper)
+import agents.candidates, agents.crew, agents.vec, baselines.active, baselines.localizers
+import baselines.policies, anonloc_env.world
+env = importlib.import_module("anonloc_env.env")
+timed(agents.vec.AnonLocVecEnv, "step_wait", "the VecEnv's step")
+timed(agents.vec.AnonLocVecEnv, "_next_episode", "the next episode of a copy (redraw, reset)")
+timed(env.AnonLocEnv, "step_arrays", "the env's control steps (step_arrays)")
+timed(anonloc_env.world.World, "step", "  of which the physics (World.step)")
+timed(baselines.localizers.BayesLocalizer, "on_picture", "the identifier's update")
+timed(agents.candidates.CandidateChooser, "on_picture", "the chooser's hypotheses, draws")
+timed(agents.candidates.CandidateChooser, "scored", "the chooser's features, observation")
+timed(agents.vec, "entropies_together", "the expected entropy (all copies)")
+timed(baselines.active.GreedyIdentification, "commands", "the excitation's commands")
+timed(baselines.policies.Team, "command", "the team's commands and motion log")
+rounds = int(sys.argv[1])
+if sys.argv[2] == "train":
+    import torch
+    import stable_baselines3.ppo.ppo
+    from agents.train import build_model, make_vec_env
+    from benchmarks.train_bundled import BUNDLED
+    timed(stable_baselines3.ppo.ppo.PPO, "train", "PPO's update")
+    torch.set_num_threads(1)
+    vec = make_vec_env(BUNDLED)
+    model = build_model(BUNDLED, vec)
+    per_rollout = model.n_steps * vec.num_envs
+    model.learn(total_timesteps=per_rollout)
+    shares.clear()
+    start = clock()
+    model.learn(total_timesteps=rounds * per_rollout, reset_num_timesteps=False)
+else:
+    from anonloc_env import make_config
+    from agents.spec import AgentSpec, Reward
+    camera = {"p_miss": 0.08, "false_positives": 2.0}
+    config = make_config(n_robots=int(sys.argv[2]), camera=camera if sys.argv[2] == "30" else {})
+    vec = agents.vec.AnonLocVecEnv(
+        config, n_envs=int(sys.argv[3]), spec=AgentSpec(reward=Reward(identity="team"))
+    )
+    vec.seed(0)
+    vec.reset()
+    rng = np.random.default_rng(0)
+    for k in range(5 + rounds):
+        if k == 5:
+            shares.clear()
+            start = clock()
+        vec.step_async(rng.integers(0, 8, vec.num_envs))
+        vec.step_wait()
+total = clock() - start
+print("| part | share of the CPU time |")
+print("|---|---:|")
+for label, seconds in sorted(shares.items(), key=lambda item: -item[1]):
+    print(f"| {label} | {100 * seconds / total:.0f} % |")
+"""
+
+
 def rate(checkout: Path, code: str, args: list[str]) -> float:
     """Decisions per second that ``code`` prints, run in a fresh interpreter on ``checkout``."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
@@ -103,7 +172,7 @@ def rate(checkout: Path, code: str, args: list[str]) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--old", type=Path, required=True, help="the older checkout")
+    parser.add_argument("--old", type=Path, help="the older checkout (required but with --profile)")
     parser.add_argument("--new", type=Path, default=Path.cwd(), help="this checkout (default)")
     parser.add_argument("--robots", type=int, nargs="+", default=[10, 30, 100, 300])
     parser.add_argument("--copies", type=int, nargs="+", default=[4, 12])
@@ -127,7 +196,21 @@ def main() -> None:
         help="time by the wall clock (default) or by the worker's own CPU time (what the other "
         "processes on a shared machine do not add to)",
     )
+    parser.add_argument(
+        "--profile",
+        action="store_true",
+        help="instead: where the new checkout's time goes (timers around each part, CPU time; "
+        "the first --robots and --copies, 200 decisions; with --train, its rollouts)",
+    )
     args = parser.parse_args()
+    if args.profile:
+        first = [str(args.robots[0]), str(args.copies[0])]
+        work = [str(args.train), "train"] if args.train else ["200", *first]
+        env = {**os.environ, "PYTHONPATH": str(args.new.resolve())}
+        subprocess.run([sys.executable, "-c", PROFILE, *work], env=env, cwd=args.new, check=True)
+        return
+    if args.old is None:
+        parser.error("--old is required (the older checkout to compare with)")
     sides = {"old": args.old.resolve(), "new": args.new.resolve()}
     if args.train:
         work = [str(args.train), args.clock]
