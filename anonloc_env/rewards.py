@@ -134,17 +134,29 @@ class RewardFunction(Protocol):
         ...
 
 
-def energy(config: EnvConfig, v: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Wheel travel (m) of each robot during one control step: ``dt * (|v| + turn_cost |w|)``."""
-    turn_cost = config.reward.turn_cost
-    if turn_cost is None:
-        turn_cost = config.robot.size / 2.0
+def turn_cost(config: EnvConfig) -> float:
+    """The wheel travel (m) a turn of one radian costs: ``config.reward.turn_cost``, or half the
+    robot's size when that is None (each wheel of a differential drive at the robot's edge)."""
+    cost = config.reward.turn_cost
+    return config.robot.size / 2.0 if cost is None else cost
+
+
+def wheel_travel(
+    v: np.ndarray, w: np.ndarray, cost: float, duration: float | np.ndarray
+) -> np.ndarray:
+    """Wheel travel (m) of commands ``v`` (m/s), ``w`` (rad/s) held for ``duration`` (s), a turn
+    costing ``cost`` m per radian: ``duration * (|v| + cost |w|)``, elementwise (broadcast)."""
     # In place, in the order of the formula: the same bits as the expression, fewer arrays.
-    travel = np.abs(w)
-    travel *= turn_cost
+    travel = np.abs(w) * cost
     travel += np.abs(v)
-    travel *= config.dt
+    travel *= duration
     return travel
+
+
+def energy(config: EnvConfig, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Wheel travel (m) of each robot during one control step: ``dt * (|v| + turn_cost |w|)``
+    (:func:`wheel_travel` with :func:`turn_cost`)."""
+    return wheel_travel(v, w, turn_cost(config), config.dt)
 
 
 class EnergyCost:

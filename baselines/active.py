@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from anonloc_env.identify import SensorModel, ring_loglik
+from anonloc_env.rewards import turn_cost, wheel_travel
 from baselines.excitations import Excitation
 from baselines.excitations.candidates import GreedySettings, candidate_commands
 from baselines.steps import BeliefView, Step
@@ -496,8 +497,7 @@ class GreedyIdentification(Excitation):
             p_detect=model.p_detect,
             duration=config.schedule.picture_interval,
         )
-        turn_cost = config.reward.turn_cost
-        self._pending = (hyp, geo, config.robot.size / 2.0 if turn_cost is None else turn_cost)
+        self._pending = (hyp, geo, turn_cost(config))
         self._previous = rows
 
     def _hypotheses(
@@ -568,7 +568,7 @@ class GreedyIdentification(Excitation):
         if self._pending is None:
             self.v, self.w = cand[:, 0, 0].copy(), cand[:, 0, 1].copy()
             return None
-        hyp, geo, turn_cost = self._pending
+        hyp, geo, cost = self._pending
         self._pending = None
         st = self.settings
         bv, bw = self.base[0][:, None], self.base[1][:, None]
@@ -579,7 +579,7 @@ class GreedyIdentification(Excitation):
         others = unicycle(
             bv + self.budget * other[..., 0], bw + self.budget * other[..., 1], geo.duration
         )
-        spent = geo.duration * (np.abs(total_v) + turn_cost * np.abs(total_w))
+        spent = wheel_travel(total_v, total_w, cost, geo.duration)
         return ScoringJob(cand, hyp, geo, own, others, spent, st.ring_samples)
 
     def drive(self, cset: CandidateSet, pick: np.ndarray) -> None:
