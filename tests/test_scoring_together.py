@@ -5,6 +5,7 @@ belief VecEnv that scores its copies that way."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -12,7 +13,6 @@ import pytest
 import anonloc_env
 from agents.conditions import ConditionRanges, training_scenarios
 from agents.spec import AgentSpec, Reward
-from agents.vec import AnonLocVecEnv
 from baselines import active
 from baselines.active import (
     Hypotheses,
@@ -22,6 +22,9 @@ from baselines.active import (
     expected_entropy,
     unicycle,
 )
+
+if TYPE_CHECKING:  # the VecEnv needs stable-baselines3 (the rl extra): imported where used
+    from agents.vec import AnonLocVecEnv
 
 
 def _job(rng: np.random.Generator, r: int, k: int, known: float, spread: float) -> ScoringJob:
@@ -118,7 +121,9 @@ def test_the_vec_env_scores_its_copies_together_with_the_bits_of_one_by_one(
     """A seeded run of the belief VecEnv (clutter and misses; or copies of different scenarios,
     redrawn at every episode's end) equals the same run with every copy scored by its own
     call, observations, rewards, ends and teachers to the bit."""
+    pytest.importorskip("stable_baselines3")
     import agents.vec
+    from agents.vec import AnonLocVecEnv
 
     def build() -> AnonLocVecEnv:
         spec = AgentSpec(reward=Reward(identity="team"))
