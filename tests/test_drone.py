@@ -224,6 +224,18 @@ def _registration_errors(
     return np.array(stated[1:]), np.array(actual[1:])
 
 
+def _registration_config(preset: str, n_robots: int, side: float) -> anonloc_env.EnvConfig:
+    """``preset`` with ``n_robots`` in a ``side`` x ``side`` m arena, headings not detected, long
+    enough for the registration tests' 60 pictures."""
+    return anonloc_env.make_config(
+        preset,
+        n_robots=n_robots,
+        arena_size=(side, side),
+        camera={"orientation": False},
+        max_cycles=1300,
+    )
+
+
 def test_registration_error_says_how_far_off_each_picture_is() -> None:
     """Seeded: 25 robots driving (random commands, 1 px of noise) under the hovering camera.
     The registration's own error, which the identifier adds to each picture's pixel noise, is
@@ -231,13 +243,7 @@ def test_registration_error_says_how_far_off_each_picture_is() -> None:
     true error (noise-free rows: the change of the registration against the camera's change)
     within 0.7 to 1.4 times that of the stated errors (0.83 measured; 0.97 before the stated
     error took the two guesses' disagreement)."""
-    config = anonloc_env.make_config(
-        "drone-hover",
-        n_robots=25,
-        arena_size=(5.0, 5.0),
-        camera={"orientation": False},
-        max_cycles=1300,
-    )
+    config = _registration_config("drone-hover", 25, 5.0)
     stated, actual = _registration_errors(config, 5, 60)
     ratio = math.sqrt(np.mean(actual) / np.mean(stated))
     assert 0.7 < ratio < 1.4, ratio
@@ -250,13 +256,7 @@ def test_registration_error_has_no_heavy_tail_in_wind() -> None:
     measured; 5 of 112, and 5.7 times at the 99th percentile, before the stated error took
     the disagreement between the registrations under the two guesses of the robots'
     motion)."""
-    config = anonloc_env.make_config(
-        "drone-windy",
-        n_robots=10,
-        arena_size=(math.sqrt(10), math.sqrt(10)),
-        camera={"orientation": False},
-        max_cycles=1300,
-    )
+    config = _registration_config("drone-windy", 10, math.sqrt(10))
     runs = [_registration_errors(config, seed, 30) for seed in range(4)]
     stated = np.concatenate([r[0] for r in runs])
     actual = np.concatenate([r[1] for r in runs])
@@ -270,13 +270,7 @@ def test_registration_matches_again_until_a_turn_of_the_camera_is_followed() -> 
     fitted until the matches hold, the registration's true error over 30 pictures is under
     3.3 px (2.5 to 2.7 measured on these seeds; 4.6 to 4.9 with two rounds of matching), and
     the stated error stays within 0.7 to 1.4 times it."""
-    config = anonloc_env.make_config(
-        "drone-windy",
-        n_robots=100,
-        arena_size=(10.0, 10.0),
-        camera={"orientation": False},
-        max_cycles=1300,
-    )
+    config = _registration_config("drone-windy", 100, 10.0)
     for seed in (0, 1):
         stated, actual = _registration_errors(config, seed, 30)
         true_rms = math.sqrt(np.mean(actual))
