@@ -252,6 +252,19 @@ def log_background(model: SensorModel, n_rows: int, share: float = 1.0) -> float
     ``share``: the share of the arena in view (a moving camera's footprint, see
     :mod:`anonloc_env.identify.footprint`): each robot is then seen with ``P_D share``.
     """
+    try:  # a pure function of its arguments, asked at every picture: remembered
+        return _log_background_cached(model, n_rows, share)
+    except TypeError:  # a model with an unhashable field
+        return _log_background(model, n_rows, share)
+
+
+@functools.lru_cache(maxsize=1024)
+def _log_background_cached(model: SensorModel, n_rows: int, share: float) -> float:
+    return _log_background(model, n_rows, share)
+
+
+def _log_background(model: SensorModel, n_rows: int, share: float) -> float:
+    """:func:`log_background`, computed."""
     area = model.image_area
     p_seen = model.p_detect if share == 1.0 else model.p_detect * share
     if model.n_robots is None:
