@@ -58,7 +58,7 @@ from agents.linear_agent import LINEAR_SPEC, linear_weights
 from agents.linear_chooser import LinearChooser, chooser
 from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
 from agents.run_folder import write_text_atomic
-from agents.search_costs import costs, pool
+from agents.search_costs import Costing, costs, pool
 from agents.spec import AgentSpec
 from anonloc_env._checks import check_number
 
@@ -172,6 +172,18 @@ def search_spec(config: SearchConfig) -> AgentSpec:
     return dataclasses.replace(spec, terms=spec.terms + SIZE_TERMS) if config.size else spec
 
 
+def costing(config: SearchConfig) -> Costing:
+    """How ``config``'s generations play and judge their episodes: the baseline rests like the
+    members with ``against == "ablation"``, never with ``"uniform"``."""
+    return Costing(
+        pictures=config.pictures,
+        rest=config.rest,
+        baseline_rest=config.rest if config.against == "ablation" else None,
+        energy_weight=config.energy_weight,
+        energy_cap=config.energy_cap,
+    )
+
+
 def search_ranges(config: SearchConfig) -> ConditionRanges:
     """The conditions a search draws from: ``config.ranges``, with :data:`SIZE_ROBOTS` added to
     its robots when ``config.size``."""
@@ -266,7 +278,8 @@ def step(
     noise = rng.standard_normal((config.pairs, len(mu))) * moved_terms(config)
     members = np.vstack([mu, mu + config.std * noise, mu - config.std * noise])
     scenarios = generation_scenarios(config, state.generation)
-    cost, ratios, decisions = costs(members, scenarios, config, search_spec(config), executor)
+    spec = search_spec(config)
+    cost, ratios, decisions = costs(members, scenarios, costing(config), spec, executor)
     ranks = centered_ranks(cost[1:])
     plus, minus = ranks[: config.pairs], ranks[config.pairs :]
     gradient = ((plus - minus)[:, None] * noise).mean(axis=0)

@@ -16,7 +16,7 @@ import math
 import multiprocessing
 from collections.abc import Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -26,8 +26,25 @@ from agents.linear_agent import LINEAR_SPEC
 from agents.linear_chooser import chooser
 from agents.spec import AgentSpec
 
-if TYPE_CHECKING:
-    from agents.search import SearchConfig
+
+@dataclass(frozen=True)
+class Costing:
+    """How a generation's episodes are played and judged (from ``agents.search.SearchConfig``).
+
+    Attributes:
+        pictures: pictures per episode (an episode that never reaches 99 % counts there).
+        rest: the members' rest (``RestWhenSure``'s ``sure``; None: they never rest).
+        baseline_rest: the baseline's (zero weights) rest: ``rest`` to measure against the
+            ablation (``uniform-rest``), None for plain ``uniform``.
+        energy_weight: the weight of the energy part of the cost (:func:`member_costs`).
+        energy_cap: the energy ratio under which energy costs nothing (None: no cap).
+    """
+
+    pictures: int
+    rest: float | None
+    baseline_rest: float | None
+    energy_weight: float
+    energy_cap: float | None
 
 
 def play_weights(
@@ -83,21 +100,20 @@ def pool(workers: int) -> ProcessPoolExecutor | None:
 def costs(
     members: np.ndarray,
     scenarios: Sequence[tuple[Scenario, Sequence[int]]],
-    config: SearchConfig,
+    costing: Costing,
     spec: AgentSpec,
     executor: Executor | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """``(cost (P,), ratios (P, 2), decisions)``: each member's cost (:func:`member_costs`), its
-    geometric-mean picture and energy ratios to the baseline over ``scenarios`` (each with its
-    seeds), and the robot-decisions played (the baseline's included). The baseline is zero
-    weights (``uniform``), at rest like the members with ``config.against == "ablation"``,
-    plain ``uniform`` with ``"uniform"``. ``executor`` runs the episodes (None: here)."""
-    base_rest = config.rest if config.against == "ablation" else None
+    geometric-mean picture and energy ratios to the baseline (zero weights at
+    ``costing.baseline_rest``) over ``scenarios`` (each with its seeds), and the robot-decisions
+    played (the baseline's included). ``executor`` runs the episodes (None: here)."""
+    c = costing
     zeros = np.zeros(len(spec.terms))
     jobs = []
     for scenario, seeds in scenarios:
-        jobs.append((scenario, zeros, seeds, config.pictures, base_rest, spec))
-        jobs += [(scenario, w, seeds, config.pictures, config.rest, spec) for w in members]
+        jobs.append((scenario, zeros, seeds, c.pictures, c.baseline_rest, spec))
+        jobs += [(scenario, w, seeds, c.pictures, c.rest, spec) for w in members]
     if executor is None:
         played = [_play_job(job) for job in jobs]
     else:
@@ -111,5 +127,5 @@ def costs(
         base = np.maximum(played[s * per][0].mean(axis=0), 1e-9)
         for m in range(len(members)):
             ratios[m, s] = played[s * per + 1 + m][0].mean(axis=0) / base
-    cost = member_costs(ratios, config.energy_weight, config.energy_cap)
+    cost = member_costs(ratios, c.energy_weight, c.energy_cap)
     return cost, np.exp(np.log(ratios).mean(axis=1)), sum(d for _, d in played)

@@ -20,6 +20,7 @@ from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS, linear_terms
 from agents.search import (
     SIZE_ROBOTS,
     SearchConfig,
+    costing,
     first_mu,
     search,
     search_ranges,
@@ -40,11 +41,11 @@ def _scenarios(config: SearchConfig) -> list:
 def test_costs_are_the_same_bits_in_a_pool_of_processes() -> None:
     members = np.random.default_rng(3).normal(0.0, 1.0, (3, len(LINEAR_TERMS)))
     scenarios = _scenarios(SMALL)
-    here = costs(members, scenarios, SMALL, LINEAR_SPEC)
+    here = costs(members, scenarios, costing(SMALL), LINEAR_SPEC)
     executor = pool(2)
     assert executor is not None
     with executor:
-        there = costs(members, scenarios, SMALL, LINEAR_SPEC, executor)
+        there = costs(members, scenarios, costing(SMALL), LINEAR_SPEC, executor)
     for a, b in zip(here, there, strict=True):
         np.testing.assert_array_equal(a, b)
     assert pool(1) is None
@@ -57,11 +58,11 @@ def test_the_baseline_is_the_ablation_or_plain_uniform() -> None:
     spec = search_spec(rest)
     zeros = np.zeros((1, len(spec.terms)))
     scenarios = _scenarios(rest)
-    cost, ratios, _ = costs(zeros, scenarios, rest, spec)
+    cost, ratios, _ = costs(zeros, scenarios, costing(rest), spec)
     assert cost[0] == 0.0
     np.testing.assert_array_equal(ratios, [[1.0, 1.0]])
     plain = dataclasses.replace(rest, against="uniform")
-    cost, ratios, _ = costs(zeros, scenarios, plain, spec)
+    cost, ratios, _ = costs(zeros, scenarios, costing(plain), spec)
     expected = []
     for scenario, seeds in scenarios:
         at_rest = play_weights(scenario, zeros[0], seeds, 4, 0.9999, spec)[0].mean(axis=0)
