@@ -112,8 +112,8 @@ class SearchConfig:
     the search is against ``uniform``."""
     size: bool = False
     """Whether the scorer has the size terms (:data:`agents.linear_terms.SIZE_TERMS`: every
-    base times ``rows``) and the search also draws 70, 150 and 200 robots
-    (:data:`SIZE_ROBOTS`), so that a preference can change with the number of robots."""
+    base times ``rows_free``, the number of robots in free motion) and the search also draws
+    70, 150 and 200 robots (:data:`SIZE_ROBOTS`), so that a preference can change with N."""
     against: str = "ablation"
     """The baseline of every ratio: ``ablation`` (zero weights at the members' rest:
     ``uniform-rest`` with ``rest``, else ``uniform``) or ``uniform`` (plain ``uniform``, the

@@ -86,16 +86,19 @@ def test_a_size_search_has_the_size_terms_and_draws_larger_teams() -> None:
     assert search_spec(config).terms == LINEAR_TERMS + SIZE_TERMS
     assert set(SIZE_ROBOTS) <= set(search_ranges(config).robots)
     assert search_ranges(SearchConfig()).robots == ConditionRanges().robots
-    # each size term is its base times the context's ``rows``
+    # each size term is its base times ``rows`` in free motion, 0 on duty
     spec = search_spec(config)
     columns = spec.columns()
     rng = np.random.default_rng(0)
     cands = rng.random((4, 8, len(spec.candidate_features)))
     context = rng.random((4, len(spec.context_features)))
+    context[:, columns[1]["on_duty"]] = [0.0, 1.0, 0.0, 1.0]
     terms = linear_terms(cands, context, np.stack, spec.terms, columns)
-    energy_rows = [t.name for t in spec.terms].index("energy*rows")
-    expected = cands[..., columns[0]["energy"]] * context[:, None, columns[1]["rows"]]
+    energy_rows = [t.name for t in spec.terms].index("energy*rows_free")
+    rows = context[:, None, columns[1]["rows"]] * np.array([1.0, 0.0, 1.0, 0.0])[:, None]
+    expected = cands[..., columns[0]["energy"]] * rows
     np.testing.assert_array_equal(terms[..., energy_rows], expected)
+    assert np.all(terms[[1, 3]][..., len(LINEAR_TERMS) :] == 0.0)  # nothing on duty
 
 
 def test_a_search_starts_from_a_saved_agents_weights_by_term_name(tmp_path: Path) -> None:
@@ -108,7 +111,7 @@ def test_a_search_starts_from_a_saved_agents_weights_by_term_name(tmp_path: Path
     np.testing.assert_allclose(mu[: len(LINEAR_TERMS)], weights, atol=1e-7)
     assert mu[len(LINEAR_TERMS) :] == [0.0] * len(SIZE_TERMS)
     assert first_mu(SearchConfig()) == [0.0] * len(LINEAR_TERMS)
-    assert len(linear_weights("bundled")) == len(LINEAR_TERMS)
+    assert list(linear_weights("bundled")) == [t.name for t in LINEAR_TERMS + SIZE_TERMS]
 
 
 @pytest.mark.parametrize(
