@@ -28,6 +28,7 @@ from agents.search import (
 )
 from agents.search_costs import costs, member_costs, play_weights, pool
 from agents.spec import saved_spec
+from tests.test_search import TINY
 
 #: Two small scenarios of a search (3 and 6 robots, one swarm, one with clutter), two seeds each.
 SMALL = SearchConfig(pictures=4, ranges=ConditionRanges(robots=(3, 6), pictures=4, p_swarm=0.5))
@@ -131,16 +132,7 @@ def test_the_new_fields_are_checked_when_built(field: str, value: object, messag
 
 
 def test_a_search_resumed_with_more_workers_finds_the_same_weights(tmp_path: Path) -> None:
-    tiny = SearchConfig(
-        generations=2,
-        pairs=1,
-        scenarios=2,
-        seeds=1,
-        pictures=4,
-        validate_every=5,
-        validation_episodes=2,
-        ranges=ConditionRanges(robots=(3,), pictures=4),
-    )
+    tiny = dataclasses.replace(TINY, scenarios=2, validate_every=5)
     whole = search(tiny, tmp_path / "whole", log=lambda _: None)
     cut = dataclasses.replace(tiny, generations=1)
     search(cut, tmp_path / "cut", log=lambda _: None)
