@@ -197,11 +197,15 @@ class Steps:
 
 
 def worst_step(
-    n: int, pictures: int, preset: str = "drone-hover", view_margin: float = 0.0
+    n: int,
+    pictures: int,
+    preset: str = "drone-hover",
+    view_margin: float = 0.0,
+    pooled: bool = False,
 ) -> Steps:
     """Time the identifier's picture updates at ``n`` robots under ``preset`` without landmarks
     (registration included), ``distinct`` motion, seed :data:`SEED0`."""
-    config = condition_config(preset, n, False, view_margin=view_margin)
+    config = condition_config(preset, n, False, view_margin=view_margin, pooled=pooled)
     # A drone over a 31 m arena flies higher than 5 m: at 1.25 times the side, the gimbal's left
     # tilt bends the picture's far edges by well under a pixel (a similarity still fits).
     config = dataclasses.replace(
@@ -247,13 +251,15 @@ def worst_step(
     return steps
 
 
-def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[str, Any]]:
+def time_steps(
+    n: int, view_margin: float, repetitions: int = 2, pooled: bool = False
+) -> list[dict[str, Any]]:
     """The fixed camera and ``drone-hover`` alternated in one process, ``repetitions`` times each,
     after one untimed warm-up of each (the compiled kernels load at their first call); each
     with the compiled first step without headings (``identify.first_step``, the default) and
     with the general path it replaces (``first_step``: ``"compiled"`` or ``"general"``)."""
     for preset in ("default", "drone-hover"):
-        worst_step(n, 3, preset, view_margin)
+        worst_step(n, 3, preset, view_margin, pooled)
     rows = []
     applies = first_step.applies
     for rep in range(repetitions):
@@ -261,7 +267,7 @@ def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[st
             for path in ("compiled", "general"):
                 first_step.applies = applies if path == "compiled" else _never  # type: ignore[assignment]  # a switch for the timing
                 try:
-                    steps = worst_step(n, 12, preset, view_margin)
+                    steps = worst_step(n, 12, preset, view_margin, pooled)
                 finally:
                     first_step.applies = applies  # type: ignore[assignment]  # restored
                 row = {
@@ -269,6 +275,7 @@ def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[st
                     "camera": preset,
                     "first_step": path,
                     "view_margin": view_margin,
+                    "pooled_motion": pooled,
                     "rep": rep,
                     "worst_step_s": max(steps.seconds),
                     "median_step_s": float(np.median(steps.seconds)),
@@ -370,7 +377,7 @@ def main() -> None:
         print(table(args.table))
         return
     if args.worst_step:
-        _write(args.out, time_steps(args.n, args.view_margin))
+        _write(args.out, time_steps(args.n, args.view_margin, pooled=args.pooled_motion))
         return
     rows = []
     choices = {"both": (False, True), "no": (False,), "yes": (True,)}[args.landmarks]
