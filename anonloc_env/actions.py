@@ -7,6 +7,7 @@ The action of one robot is a float32 vector in ``[-1, 1]^2``: ``(v / v_max, w / 
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -112,10 +113,39 @@ def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
     try:
         if set(map(len, rows)) != {2}:
             return None
-        flat = np.concatenate(rows, dtype=np.float64)
+        flat = _joined(rows)
+        if flat is None:
+            flat = np.concatenate(rows, dtype=np.float64)
     except (TypeError, ValueError):
         return None
     return flat.reshape(len(rows), 2) if flat.ndim == 1 else None
+
+
+#: The dtypes whose rows :func:`_joined` reads as bytes (native byte order).
+_JOINABLE = frozenset((np.dtype(np.float32), np.dtype(np.float64)))
+_DTYPE = operator.attrgetter("dtype")
+
+
+def _joined(rows: list[Any]) -> np.ndarray | None:
+    """``np.concatenate(rows, dtype=np.float64)`` for rows (each of length 2) that are all
+    contiguous numpy arrays of one dtype, float32 or float64, by joining their bytes: on a
+    hundred rows about a third of ``np.concatenate``'s cost, and the same values. None for
+    anything else (the caller concatenates). The joined length is two items a row exactly only
+    where every row is ``(2,)``."""
+    try:
+        kinds = set(map(_DTYPE, rows))
+    except AttributeError:  # not arrays (lists, tuples)
+        return None
+    if len(kinds) != 1 or not kinds <= _JOINABLE:
+        return None
+    kind = kinds.pop()
+    try:
+        data = b"".join(rows)
+    except (TypeError, ValueError, BufferError):  # not contiguous, or not a buffer
+        return None
+    if len(data) != 2 * kind.itemsize * len(rows):
+        return None
+    return np.frombuffer(data, kind).astype(np.float64)
 
 
 def _is_numeric(row: Any) -> bool:

@@ -214,7 +214,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self._command_scale = np.array([robot.v_max, robot.omega_max])
         self._all_false = dict.fromkeys(self.possible_agents, False)
         self._all_true = dict.fromkeys(self.possible_agents, True)
-        self._info_templates: list[dict[str, Any]] = []
+        self._info_templates: list[dict[str, Any]] | None = []
+        self._info_source: tuple[np.ndarray, int, Any] = (np.zeros((0, 3)), 0, None)
         self._rng: np.random.Generator | None = None
         self.world: World | None = None
         self.odometry = self._new_odometry()
@@ -411,24 +412,27 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         return between
 
     def _update_info_templates(self) -> None:
-        """Rebuild the per-agent infos after a picture (or at reset): they change only then."""
+        """Note the per-agent infos after a picture (or at reset): they change only then. The
+        dicts are built when ``step`` or ``reset`` first hands them out (``step_arrays``
+        callers never read them), from the poses as they are now."""
         assert self.world is not None
-        poses = self.world.poses.copy()
-        poses[:, 2] = wrap_angle(poses[:, 2])
-        poses.flags.writeable = False
-        count = self.pictures_taken
         if self.picture is not None:
             self._true_index = _frozen_int(self.picture.true_index)
         else:
             self._true_index = _frozen_int(np.full(self.config.n_robots, -1))
-        rows = self._true_index.tolist()
-        camera_pose = self.camera_motion.pose
-        self._info_templates = [
-            {"true_index": row, "pose": pose, "picture": count, "camera_pose": camera_pose}
-            for row, pose in zip(rows, list(poses), strict=True)
-        ]
+        self._info_source = (self.world.poses.copy(), self.pictures_taken, self.camera_motion.pose)
+        self._info_templates = None
 
     def _infos(self) -> dict[str, dict[str, Any]]:
+        if self._info_templates is None:
+            poses, count, camera_pose = self._info_source
+            poses[:, 2] = wrap_angle(poses[:, 2])
+            poses.flags.writeable = False
+            rows = self._true_index.tolist()
+            self._info_templates = [
+                {"true_index": row, "pose": pose, "picture": count, "camera_pose": camera_pose}
+                for row, pose in zip(rows, list(poses), strict=True)
+            ]
         # Fresh shallow copies: a wrapper that adds keys to one step's infos leaves the next alone.
         copies = map(dict.copy, self._info_templates)  # a loop in C (see ``_dicts``)
         return dict(zip(self.possible_agents, copies, strict=True))

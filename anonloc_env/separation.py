@@ -117,16 +117,15 @@ class Separator:
         """:meth:`separate` through :func:`anonloc_env.compiled.separate` (same floats) for
         the positions in the first two columns of ``state`` ``(N + 1, 7)``, clamped to
         ``low``/``high`` as ``World._clamp_to_arena`` does; circles go through :meth:`separate`."""
-        xy = state[: self.n, :2]
         if not self.square:
+            xy = state[: self.n, :2]
             clamp = partial(_clamp, xy, low, high)
             self.separate(xy, heading, clamp)
             return
-        z = xy.view(np.complex128)[:, 0]
         left, check = MAX_PROJECTIONS, True
         while left > 0:
             if self._anchor is None:
-                self.neighbours(z)
+                self.neighbours(state[: self.n, :2].view(np.complex128)[:, 0])
                 check = False
             done = compiled.separate(
                 state, self.n, heading, self._pairs, self._anchor_xy, low, high,

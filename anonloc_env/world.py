@@ -220,6 +220,7 @@ class World:
         # The unit headings exp(i theta) of the current poses and the arena limits of the
         # centres at those headings (see _set_headings): both change only when robots turn.
         self._arena = np.array(config.arena_size, dtype=np.float64)
+        self._width, self._height = (float(side) for side in config.arena_size)
         # Two buffers, swapped at each turn: a sub-step still reads the headings it started with.
         self._heading = np.empty(self.n, dtype=np.complex128)
         self._spare_heading = np.empty(self.n, dtype=np.complex128)
@@ -304,22 +305,22 @@ class World:
         forward = np.empty((self.substeps, n))
         turned = np.empty((self.substeps, n))
         worst = np.zeros((n, 2))
-        width, height = self._arena
+        width, height = self._width, self._height
+        ours, low, high, force = self._state, self._low, self._high, self._force
+        batch, separate = self.batch, self.separator.separate_compiled
         for k in range(self.substeps):
             heading, spare = self._heading, self._spare_heading
-            np.multiply(speed, heading, out=self._force)
-            self.batch.write()
-            self.batch.step(h)
-            state = self.batch.read_state()
+            np.multiply(speed, heading, out=force)
+            batch.write()
+            batch.step(h)
+            state = batch.read_state()
             kernels.move(
-                state, self._state, n, h, turn, spare, self._low, self._high,
+                state, ours, n, h, turn, spare, low, high,
                 self._half, self._wall_slack, width, height, self._square,
             )  # fmt: skip
             self._heading, self._spare_heading = spare, heading
-            self.separator.separate_compiled(self._state, spare, self._low, self._high, fused)
-            kernels.record(
-                state, self._state, n, heading, travel, forward[k], turned[k], worst, fused
-            )
+            separate(ours, spare, low, high, fused)
+            kernels.record(state, ours, n, heading, travel, forward[k], turned[k], worst, fused)
         self.poses = self._pose_rows.copy()
         return WheelTravel(forward, turned, self._bumped(worst))
 
@@ -380,6 +381,8 @@ class BodyBatch:
         self._state_buffer = pmb.Buffer()
         self._state_buffer.set_float_buf(state.reshape(-1))
         self._get_buffer = pmb.Buffer()
+        self._read_at: Any = None  # where the last fast read's view points (a cffi pointer)
+        self._read_view = np.zeros((0, 5))
         self.fast = fast and self._prepare_direct_calls()
 
     def _prepare_direct_calls(self) -> bool:
@@ -450,9 +453,12 @@ class BodyBatch:
             array = buffer._float_arr
             array.num = 0  # the iterator appends from ``num`` on (buffer.clear())
             self._each_body(*self._get_call)
-            data = self._ffi.buffer(array.arr, 5 * self.n * 8)
-        else:
-            buffer.clear()
-            pmb.get_space_bodies(self.space, _STATE_FIELDS, buffer)
-            data = buffer.float_buf()
-        return np.frombuffer(data, dtype=_STATE, count=self.n)
+            pointer = array.arr
+            if pointer != self._read_at:  # the first read, or pymunk moved its array
+                data = self._ffi.buffer(pointer, 5 * self.n * 8)
+                self._read_view = np.frombuffer(data, dtype=_STATE, count=self.n)
+                self._read_at = pointer
+            return self._read_view
+        buffer.clear()
+        pmb.get_space_bodies(self.space, _STATE_FIELDS, buffer)
+        return np.frombuffer(buffer.float_buf(), dtype=_STATE, count=self.n)

@@ -32,6 +32,7 @@ import numpy as np
 
 import anonloc_env
 import baselines
+from anonloc_env.identify import first_step
 from anonloc_env.identify.camera_pose import apply
 from anonloc_env.landmarks import border_landmarks
 from anonloc_env.rewards import EnergyCost
@@ -244,30 +245,45 @@ def worst_step(
 
 def time_steps(n: int, view_margin: float, repetitions: int = 2) -> list[dict[str, Any]]:
     """The fixed camera and ``drone-hover`` alternated in one process, ``repetitions`` times each,
-    after one untimed warm-up of each (the compiled kernels load at their first call)."""
+    after one untimed warm-up of each (the compiled kernels load at their first call); each
+    with the compiled first step without headings (``identify.first_step``, the default) and
+    with the general path it replaces (``first_step``: ``"compiled"`` or ``"general"``)."""
     for preset in ("default", "drone-hover"):
         worst_step(n, 3, preset, view_margin)
     rows = []
+    applies = first_step.applies
     for rep in range(repetitions):
         for preset in ("default", "drone-hover"):
-            steps = worst_step(n, 12, preset, view_margin)
-            row = {
-                "n": n,
-                "camera": preset,
-                "view_margin": view_margin,
-                "rep": rep,
-                "worst_step_s": max(steps.seconds),
-                "median_step_s": float(np.median(steps.seconds)),
-                "worst_step_cpu_s": max(steps.cpu),
-                "median_step_cpu_s": float(np.median(steps.cpu)),
-                "worst_registration_s": max(steps.registration),
-                "step_s": steps.seconds,
-                "rows": steps.rows,
-                "tracks": steps.tracks,
-            }
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+            for path in ("compiled", "general"):
+                first_step.applies = applies if path == "compiled" else _never  # type: ignore[assignment]  # a switch for the timing
+                try:
+                    steps = worst_step(n, 12, preset, view_margin)
+                finally:
+                    first_step.applies = applies  # type: ignore[assignment]  # restored
+                row = {
+                    "n": n,
+                    "camera": preset,
+                    "first_step": path,
+                    "view_margin": view_margin,
+                    "rep": rep,
+                    "worst_step_s": max(steps.seconds),
+                    "median_step_s": float(np.median(steps.seconds)),
+                    "worst_step_cpu_s": max(steps.cpu),
+                    "median_step_cpu_s": float(np.median(steps.cpu)),
+                    "worst_registration_s": max(steps.registration),
+                    "step_s": steps.seconds,
+                    "step_cpu_s": steps.cpu,
+                    "rows": steps.rows,
+                    "tracks": steps.tracks,
+                }
+                rows.append(row)
+                print(json.dumps(row), flush=True)
     return rows
+
+
+def _never(fast: bool, scoring: Any) -> bool:
+    """``first_step.applies`` that never applies: the general path."""
+    return False
 
 
 def table(files: list[Path]) -> str:

@@ -9,6 +9,7 @@ import pytest
 
 import anonloc_env
 from anonloc_env import RobotConfig, to_actions, to_commands
+from anonloc_env.actions import stack_actions
 
 
 @pytest.fixture
@@ -76,3 +77,40 @@ def test_step_after_the_end_is_an_error() -> None:
     assert env.agents == []
     with pytest.raises(RuntimeError, match="finished episode"):
         env.step({"robot_0": [0.0, 0.0]})
+
+
+@pytest.mark.parametrize(
+    "rows",
+    [
+        list(np.linspace(-1.5, 1.5, 10, dtype=np.float32).reshape(5, 2)),  # row views, float32
+        list(np.linspace(-1.5, 1.5, 10).reshape(5, 2)),  # float64
+        list(np.linspace(-1, 1, 20, dtype=np.float32).reshape(5, 4)[:, ::2]),  # not contiguous
+        list(np.linspace(-1, 1, 10).reshape(5, 2).astype(">f8")),  # big-endian
+        [np.array([0.1, -0.2], np.float32)] * 2 + [np.array([0.3, 0.4])] * 3,  # mixed dtypes
+        [np.array([1, -2], np.int32)] * 5,  # integers: 4 bytes an item, read as numbers
+        [[0.1, 0.2], (0.3, -0.4), np.array([0.5, 0.6], np.float32), [1, 2], [0.0, -0.0]],
+    ],
+)
+def test_stacked_actions_are_the_rows_values(rows) -> None:
+    """However the rows are held (views of one array, several dtypes, strides, byte orders,
+    lists), the env takes the values of the rows, as ``np.array`` reads them, clipped."""
+    env = anonloc_env.parallel_env(n_robots=5)
+    env.reset(seed=0)
+    stacked = stack_actions(dict(zip(env.agents, rows, strict=True)), env.agents)
+    expected = np.clip(np.array([np.asarray(r, dtype=np.float64) for r in rows]), -1.0, 1.0)
+    assert stacked.dtype == np.float64
+    assert stacked.flags.writeable
+    np.testing.assert_array_equal(stacked, expected)
+    assert (np.signbit(stacked) == np.signbit(expected)).all()
+
+
+def test_rows_of_other_shapes_are_refused_whatever_their_bytes() -> None:
+    """Rows whose bytes add up to two numbers a row are still refused when a row is not 2."""
+    env = anonloc_env.parallel_env(n_robots=2)
+    env.reset(seed=0)
+    rows = {"robot_0": np.zeros(1, np.float32), "robot_1": np.zeros(3, np.float32)}
+    with pytest.raises(ValueError, match="must be 2 numbers"):
+        env.step(rows)
+    square = {"robot_0": np.zeros((2, 2), np.float32), "robot_1": np.zeros((2, 2), np.float32)}
+    with pytest.raises(ValueError, match="must be 2 numbers"):
+        env.step(square)

@@ -46,6 +46,30 @@ def test_step_arrays_is_step_to_the_bit() -> None:
     np.testing.assert_array_equal(by_array.state(), by_dict.state())
 
 
+def test_infos_after_array_steps_are_those_of_dict_steps() -> None:
+    """The per-agent infos, which ``step_arrays`` does not build, are those ``step`` hands out
+    when a caller switches from arrays to dicts between pictures (the poses and picture count
+    of the newest picture, not of the step that asks)."""
+    by_dict = anonloc_env.AnonLocEnv(anonloc_env.make_config(**NOISY))
+    by_array = anonloc_env.AnonLocEnv(anonloc_env.make_config(**NOISY))
+    by_dict.reset(seed=5)
+    by_array.reset(seed=5)
+    actions = np.random.default_rng(1).uniform(-1, 1, (60, 7, 2)).astype(np.float32)
+    for k, a in enumerate(actions):
+        *_, infos = by_dict.step(dict(zip(by_dict.agents, a, strict=True)))
+        if k % 7 < 5:  # arrays for a while, then dicts
+            by_array.step_arrays(a)
+            continue
+        *_, got = by_array.step(dict(zip(by_array.agents, a, strict=True)))
+        assert list(got) == list(infos)
+        for agent, info in infos.items():
+            assert got[agent].keys() == info.keys()
+            np.testing.assert_array_equal(got[agent]["pose"], info["pose"])
+            assert got[agent]["picture"] == info["picture"]
+            assert got[agent]["true_index"] == info["true_index"]
+            np.testing.assert_array_equal(got[agent]["camera_pose"], info["camera_pose"])
+
+
 def test_step_arrays_checks_its_actions_before_any_change() -> None:
     env = anonloc_env.AnonLocEnv(anonloc_env.make_config(n_robots=3))
     env.reset(seed=0)

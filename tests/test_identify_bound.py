@@ -1,5 +1,7 @@
 """The uniform weight's candidates dropped before they are scored (their bound below their
-robot's floor) are those the identifier would have pruned anyway: same tracks to the bit."""
+robot's floor) are those the identifier would have pruned anyway: same tracks to the bit. The
+compiled first step without headings (``identify.first_step``) gives the general path's tracks
+to the bit."""
 
 from __future__ import annotations
 
@@ -10,8 +12,9 @@ import pytest
 
 import anonloc_env
 import baselines
+from anonloc_env import compiled
 from anonloc_env.identify import children as children_module
-from anonloc_env.identify import likelihood
+from anonloc_env.identify import first_step, likelihood
 from anonloc_env.identify.model import ring_loglik, ring_loglik_bound
 from anonloc_env.identify.tracks import FIELDS
 from anonloc_env.rewards import EnergyCost
@@ -69,10 +72,16 @@ def _snapshots(preset: str, n: int, pictures: int) -> tuple[list[dict[str, np.nd
     return steps, scored[0]
 
 
+def _general_first_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The uniform weight's children by the general path (``likelihood.children``)."""
+    monkeypatch.setattr(first_step, "applies", lambda fast, scoring: False)
+
+
 @pytest.mark.parametrize("preset", ["drone-hover", "drone-windy", "default"])
 def test_dropping_candidates_below_the_floor_changes_no_track(
     preset: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    _general_first_step(monkeypatch)
     with_bound, fewer = _snapshots(preset, 64, 6)
     monkeypatch.setattr(children_module, "BOUND_SLACK", math.inf)  # nothing dropped
     without, every = _snapshots(preset, 64, 6)
@@ -82,3 +91,31 @@ def test_dropping_candidates_below_the_floor_changes_no_track(
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     if preset != "default":  # the robots' chance to come back at the edges keeps many
         assert fewer < 0.8 * every
+
+
+@pytest.mark.parametrize("preset", ["drone-hover", "drone-windy", "default"])
+def test_compiled_first_step_gives_the_general_paths_tracks(
+    preset: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With the kernels on, robots of unknown position are anchored by
+    ``first_step.ring_leg`` (the bound, the ring and the prune compiled): every track after
+    every picture is the general path's, to the bit, the camera moving or not."""
+    pytest.importorskip("numba")
+    if compiled.mode() is None:
+        pytest.skip("kernels off (ANONLOC_JIT=0 or an unknown numpy)")
+    calls = [0]
+    ring_leg = first_step.ring_leg
+
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]  # a spy
+        calls[0] += 1
+        return ring_leg(*args, **kwargs)
+
+    monkeypatch.setattr(first_step, "ring_leg", counted)
+    fast, _ = _snapshots(preset, 64, 6)
+    assert calls[0] >= 5  # every picture after the first
+    _general_first_step(monkeypatch)
+    general, _ = _snapshots(preset, 64, 6)
+    assert len(fast) == len(general) == 6
+    for a, b in zip(fast, general, strict=True):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name)

@@ -14,9 +14,13 @@ def shared(value: float, count: int, width: int = 0) -> np.ndarray:
     memory (stride 0): a field that every track of a batch holds alike (a first leg's position
     variance, a known scale, no carried motion). ``Tracks.take``, ``concat`` and ``gather`` keep
     such a field shared, so large batches do not write it out."""
+    one = np.array(float(value))  # built directly, as ``repeated`` does: no broadcast_to
     if width:
-        return np.broadcast_to(np.float64(value), (count, width))
-    return repeated(np.float64(value), count)
+        out = np.ndarray((count, width), np.float64, one, strides=(0, 0))
+    else:
+        out = np.ndarray((count,), np.float64, one, strides=(0,))
+    out.setflags(write=False)
+    return out
 
 
 def repeated(item: np.ndarray | np.generic, count: int) -> np.ndarray:
@@ -24,11 +28,11 @@ def repeated(item: np.ndarray | np.generic, count: int) -> np.ndarray:
     taking no memory (stride 0). A single number's is built directly, at a third of the cost
     of ``np.broadcast_to`` (which the identifier would call tens of thousands of times a
     minute)."""
-    if np.ndim(item):
-        return np.broadcast_to(item, (count, *np.shape(item)))
+    if item.ndim:
+        return np.broadcast_to(item, (count, *item.shape))
     one = np.asarray(item)
     out = np.ndarray((count,), one.dtype, one, strides=(0,))
-    out.flags.writeable = False
+    out.setflags(write=False)
     return out
 
 

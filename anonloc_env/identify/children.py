@@ -18,7 +18,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.geometry import rotate, wrap_angle
-from anonloc_env.identify import fused_calls, kernels
+from anonloc_env.identify import first_step, fused_calls, kernels
 from anonloc_env.identify.arrays import group_starts, rank_in_group
 from anonloc_env.identify.gate import Gate, uniform_gate
 from anonloc_env.identify.likelihood import Pairs, Scoring, children
@@ -164,22 +164,20 @@ class Builder(NamedTuple):
         start = np.searchsorted(sorted_len, lo, side="left")
         counts = np.searchsorted(sorted_len, hi, side="right") - start
         out = []
-        if self.fast and model.orientation and model.scale is not None:
-            # Heading and scale known: robots nothing pushed take the fast first leg.
+        ring = first_step.applies(self.fast, self.scoring)  # no heading, scale known: compiled
+        if ring or (self.fast and model.orientation and model.scale is not None):
+            # Heading detected, or not (ring), and scale known: robots nothing pushed take the
+            # fast first leg.
             n = len(self.prior.uniform)
             pushed = np.zeros(n, bool) if interval.push is None else interval.push > 0
             fused = ~pushed[live]
-            out.append(
-                kernels.first_leg(
-                    live[fused],
-                    start[fused],
-                    counts[fused],
-                    by_length,
-                    pairs,
-                    self.prior,
-                    self.scoring,
+            leg = (live[fused], start[fused], counts[fused], by_length, pairs)
+            if ring:
+                out.append(
+                    first_step.ring_leg(*leg, dist, floor, self.prior, self.scoring, BOUND_SLACK)
                 )
-            )
+            else:
+                out.append(kernels.first_leg(*leg, self.prior, self.scoring))
             if fused.all():
                 return out
             live, start, counts = live[~fused], start[~fused], counts[~fused]

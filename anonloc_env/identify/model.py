@@ -252,6 +252,19 @@ def log_background(model: SensorModel, n_rows: int, share: float = 1.0) -> float
     ``share``: the share of the arena in view (a moving camera's footprint, see
     :mod:`anonloc_env.identify.footprint`): each robot is then seen with ``P_D share``.
     """
+    try:  # a pure function of its arguments, asked at every picture: remembered
+        return _log_background_cached(model, n_rows, share)
+    except TypeError:  # a model with an unhashable field
+        return _log_background(model, n_rows, share)
+
+
+@functools.lru_cache(maxsize=1024)
+def _log_background_cached(model: SensorModel, n_rows: int, share: float) -> float:
+    return _log_background(model, n_rows, share)
+
+
+def _log_background(model: SensorModel, n_rows: int, share: float) -> float:
+    """:func:`log_background`, computed."""
     area = model.image_area
     p_seen = model.p_detect if share == 1.0 else model.p_detect * share
     if model.n_robots is None:
@@ -305,36 +318,42 @@ def push_isotropic(interval: Interval, model: SensorModel) -> np.ndarray:
     return 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
 
 
+#: Abramowitz and Stegun 9.8.1: ``I0(x)`` for ``x < 3.75``, a series in ``t = (x / 3.75)^2``
+#: (lowest power first).
+I0_SMALL = (1.0, 3.5156229, 3.0899424, 1.2067492, 0.2659732, 0.0360768, 0.0045813)
+#: Abramowitz and Stegun 9.8.2: ``I0(x) exp(-x) sqrt(x)`` for ``x >= 3.75``, a series in
+#: ``t = 3.75 / x`` (lowest power first).
+I0_LARGE = (
+    0.39894228,
+    0.01328592,
+    0.00225319,
+    -0.00157565,
+    0.00916281,
+    -0.02057706,
+    0.02635537,
+    -0.01647633,
+    0.00392377,
+)
+
+
+def series(t: np.ndarray, coefficients: tuple[float, ...]) -> np.ndarray:
+    """``c0 + t (c1 + t (c2 + ...))`` (Horner's rule, innermost first)."""
+    out = coefficients[-1] * t
+    for c in coefficients[-2:0:-1]:
+        out = t * (c + out)
+    return coefficients[0] + out
+
+
 def log_i0e(x: np.ndarray) -> np.ndarray:
     """``log(I0(x) exp(-x))`` for ``x >= 0`` (Abramowitz and Stegun 9.8.1-2, error < 2e-7)."""
     x = np.asarray(x, dtype=np.float64)
     small = x < 3.75
     out = np.empty_like(x)
     t = (x[small] / 3.75) ** 2
-    i0 = 1.0 + t * (
-        3.5156229
-        + t * (3.0899424 + t * (1.2067492 + t * (0.2659732 + t * (0.0360768 + t * 0.0045813))))
-    )
-    out[small] = np.log(i0) - x[small]
+    out[small] = np.log(series(t, I0_SMALL)) - x[small]
     big = ~small
     t = 3.75 / x[big]
-    poly = 0.39894228 + t * (
-        0.01328592
-        + t
-        * (
-            0.00225319
-            + t
-            * (
-                -0.00157565
-                + t
-                * (
-                    0.00916281
-                    + t * (-0.02057706 + t * (0.02635537 + t * (-0.01647633 + t * 0.00392377)))
-                )
-            )
-        )
-    )
-    out[big] = np.log(poly) - 0.5 * np.log(x[big])
+    out[big] = np.log(series(t, I0_LARGE)) - 0.5 * np.log(x[big])
     return out
 
 

@@ -70,7 +70,7 @@ class BumpReflex(BackOff):
         return (self.bumped | step.bumper) & self.before
 
     def start(self, hit: np.ndarray) -> None:
-        if self.escape is None:
+        if self.escape is None or not len(hit):  # (nobody hit: most control steps)
             super().start(hit)
             return
         pressed = self.before[hit]
