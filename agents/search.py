@@ -58,7 +58,7 @@ from agents.linear_agent import LINEAR_SPEC, linear_weights
 from agents.linear_chooser import LinearChooser, chooser
 from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
 from agents.run_folder import write_text_atomic
-from agents.search_costs import Costing, costs, pool
+from agents.search_costs import Costing, costs, pool, pooled_player
 from agents.spec import AgentSpec
 from anonloc_env._checks import check_number
 
@@ -211,17 +211,21 @@ def validate(
     rest: float | None = None,
     spec: AgentSpec = LINEAR_SPEC,
     crowd: bool = False,
+    executor: Executor | None = None,
 ) -> dict[str, float]:
     """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
     ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
     in free motion and on swarm duty (and, with ``crowd``, in a crowd of 4 robots per m²): the
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``, ``crowd_...``) and the censored mean
-    pictures of both; ``weights`` of ``spec``'s terms."""
+    pictures of both; ``weights`` of ``spec``'s terms. ``executor`` plays the episodes in its
+    processes (the same episodes; None: here)."""
     out: dict[str, float] = {}
-    ablation = chooser(np.zeros(len(spec.terms)), rest, spec)
+    zeros = np.zeros(len(spec.terms))
+    ablation = chooser(zeros, rest, spec)
+    player = None if executor is None else pooled_player(executor, (weights, zeros), rest, spec)
     validations = validate_against_uniform(
-        chooser(weights, rest, spec), episodes, pictures, ablation, crowd
+        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player
     )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
@@ -344,15 +348,22 @@ def search(
         write_text_atomic(path, json.dumps(data, indent=1))
         _write_progress(directory, history)
 
+    executor = pool(config.workers)
+
     def validate_mu() -> dict[str, float]:
         spec = search_spec(config)
         mu = np.asarray(state.mu)
         return validate(
-            mu, config.validation_episodes, config.pictures, config.rest, spec, config.crowd
+            mu,
+            config.validation_episodes,
+            config.pictures,
+            config.rest,
+            spec,
+            config.crowd,
+            executor,
         )
 
     started = time.perf_counter()
-    executor = pool(config.workers)
     try:
         while state.generation < config.generations:
             if (time.perf_counter() - started) / 60.0 > config.minutes:
@@ -365,14 +376,14 @@ def search(
             history.append({"generation": state.generation - 1, **row})
             save()
             log(_summary(history[-1]))
+        last = history[-1] if history else {}
+        if not (last.get("generation") == state.generation and "free_pictures" in last):
+            history.append({"generation": state.generation, **validate_mu()})
+            save()
+            log(_summary(history[-1]))
     finally:
         if executor is not None:
             executor.shutdown(cancel_futures=True)
-    last = history[-1] if history else {}
-    if not (last.get("generation") == state.generation and "free_pictures" in last):
-        history.append({"generation": state.generation, **validate_mu()})
-        save()
-        log(_summary(history[-1]))
     mu = np.asarray(state.mu)
     save_linear_agent(mu, directory / "agent.zip", search_spec(config))
     return mu

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from agents.conditions import Scenario
-from agents.evaluation import censored, play
+from agents.evaluation import Player, censored, play
 from agents.linear_agent import LINEAR_SPEC
 from agents.linear_chooser import chooser
 from agents.spec import AgentSpec
@@ -88,6 +88,31 @@ def member_costs(ratios: np.ndarray, energy_weight: float, energy_cap: float | N
         energy = np.maximum(energy - math.log(energy_cap), 0.0)
     out: np.ndarray = logs[..., 0].mean(axis=1) + energy_weight * energy.mean(axis=1)
     return out
+
+
+def pooled_player(
+    executor: Executor,
+    weights: tuple[np.ndarray, np.ndarray],
+    rest: float | None,
+    spec: AgentSpec,
+    chunk: int = 2,
+) -> Player:
+    """A player of validation episodes (``agents.evaluation.Player``) in ``executor``'s
+    processes: ``weights[0]`` (the excitation) or ``weights[1]`` (its ablation) at ``rest``,
+    ``chunk`` seeds a job; the same episodes as one process plays (every episode is seeded by
+    its own seed alone)."""
+
+    def player(scenario: Scenario, which: int, seeds: Sequence[int], pictures: int) -> np.ndarray:
+        seeds = list(seeds)
+        futures = [
+            executor.submit(
+                _play_job, (scenario, weights[which], seeds[i : i + chunk], pictures, rest, spec)
+            )
+            for i in range(0, len(seeds), chunk)
+        ]
+        return np.concatenate([f.result()[0] for f in futures])
+
+    return player
 
 
 def pool(workers: int) -> ProcessPoolExecutor | None:

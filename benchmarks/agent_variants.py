@@ -9,7 +9,8 @@ terms (:data:`agents.linear_terms.SIZE_TERMS`): ``size BETA`` sets ``base*rows_f
 ``-BETA`` times ``base*always`` for those four bases, so the preference of an unsure robot in
 free motion is ``w * (1 - BETA * rows)`` (``rows`` is 0.35 at N = 10, 0.67 at N = 100, 0.83 at
 N = 300, 1 at N = 1000), and on duty it is unchanged; ``duty D`` adds ``D`` to
-``energy*on_duty``; ``flat`` zeroes the four ``always``
+``energy*on_duty`` (-1.5, -5, -20: ever cheaper deviations on duty); ``flat`` zeroes the four
+``always``
 weights. The variants are saved as ordinary linear agents (``agents.linear_agent``).
 
 Usage::
@@ -40,6 +41,8 @@ VARIANTS = {
     "size-0.5": (0.5, 0.0, False),
     "size-1.0": (1.0, 0.0, False),
     "size-1.0-duty": (1.0, -1.5, False),
+    "size-1.0-duty-5": (1.0, -5.0, False),
+    "size-1.0-duty-20": (1.0, -20.0, False),
     "flat": (0.0, 0.0, True),
 }
 

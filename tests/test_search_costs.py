@@ -25,6 +25,7 @@ from agents.search import (
     search,
     search_ranges,
     search_spec,
+    validate,
 )
 from agents.search_costs import costs, member_costs, play_weights, pool
 from agents.spec import saved_spec
@@ -50,6 +51,19 @@ def test_costs_are_the_same_bits_in_a_pool_of_processes() -> None:
     for a, b in zip(here, there, strict=True):
         np.testing.assert_array_equal(a, b)
     assert pool(1) is None
+
+
+def test_the_validation_is_the_same_in_a_pool_of_processes() -> None:
+    """Free, swarm and crowd validations of some weights at rest: every ratio, interval and
+    mean equal to the bit, whether one process plays the episodes or a pool."""
+    weights = np.random.default_rng(5).normal(0.0, 1.0, len(LINEAR_TERMS))
+    here = validate(weights, 4, 4, 0.9999, LINEAR_SPEC, crowd=True)
+    executor = pool(2)
+    assert executor is not None
+    with executor:
+        there = validate(weights, 4, 4, 0.9999, LINEAR_SPEC, True, executor)
+    assert there == here
+    assert {k.split("_")[0] for k in here} == {"free", "swarm", "crowd"}
 
 
 def test_the_baseline_is_the_ablation_or_plain_uniform() -> None:
