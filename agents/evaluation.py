@@ -11,14 +11,19 @@ validations against ``uniform`` of a search and of a checkpoint selection
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 import anonloc_env
 import baselines
-from agents.conditions import VALIDATION_CROWD_DENSITY, VALIDATION_SEEDS, validation_scenario
+from agents.conditions import (
+    VALIDATION_CROWD_DENSITY,
+    VALIDATION_SEEDS,
+    Scenario,
+    validation_scenario,
+)
 from agents.spec import on_duty
 from anonloc_env.config import EnvConfig
 from baselines.excitations import Excitation
@@ -81,12 +86,31 @@ class Validation:
     uniform: float
 
 
+#: Plays a validation condition: ``(scenario, which, seeds, pictures) -> (len(seeds), 2)``
+#: censored pictures and energy to 99 %, ``which`` 0 for the excitation, 1 for its ablation.
+Player = Callable[[Scenario, int, Sequence[int], int], np.ndarray]
+
+
+def validation_scenarios(crowd: bool = False, pictures: int = 20) -> list[tuple[str, Scenario]]:
+    """The validation conditions by key: ``free`` and ``swarm`` (one robot per m²) and, with
+    ``crowd``, ``crowd`` (:data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m²,
+    free motion)."""
+    where = [("free", "free", 1.0), ("swarm", "swarm", 1.0)]
+    if crowd:
+        where.append(("crowd", "free", VALIDATION_CROWD_DENSITY))
+    return [
+        (key, validation_scenario(condition, pictures=pictures, density=density))
+        for key, condition, density in where
+    ]
+
+
 def validate_against_uniform(
     make: Callable[[], Excitation],
     episodes: int,
     pictures: int,
     ablation: Callable[[], Excitation] = UniformChoice,
     crowd: bool = False,
+    player: Player | None = None,
 ) -> dict[str, Validation]:
     """``make()``'s excitation against ``ablation()`` (default ``uniform``, its no-learning
     ablation; ``uniform-rest`` for an agent that rests) on the validation condition
@@ -94,19 +118,20 @@ def validate_against_uniform(
     :data:`agents.conditions.VALIDATION_SEEDS`), in free motion and on swarm duty (keys
     ``free`` and ``swarm``) and, with ``crowd``, in free motion at
     :data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m² (key ``crowd``),
-    ``episodes`` episodes of ``pictures`` pictures each."""
+    ``episodes`` episodes of ``pictures`` pictures each. ``player`` plays the episodes instead
+    (the same episodes: a search's pool of processes, ``agents.search``)."""
     seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
+    makers = (make, ablation)
+
+    def here(scenario: Scenario, which: int, seeds: Sequence[int], pictures: int) -> np.ndarray:
+        played = play(
+            scenario.config, scenario.condition, scenario.budget, makers[which], seeds, pictures
+        )
+        return np.array([censored(r, pictures) for r in played])
+
     out = {}
-    where = [("free", "free", 1.0), ("swarm", "swarm", 1.0)]
-    if crowd:
-        where.append(("crowd", "free", VALIDATION_CROWD_DENSITY))
-    for key, condition, density in where:
-        scenario = validation_scenario(condition, pictures=pictures, density=density)
-        mine, chance = (
-            np.array([censored(r, pictures) for r in play(
-                scenario.config, condition, scenario.budget, maker, seeds, pictures)])
-            for maker in (make, ablation)
-        )  # fmt: skip
+    for key, scenario in validation_scenarios(crowd, pictures):
+        mine, chance = ((player or here)(scenario, which, seeds, pictures) for which in (0, 1))
         out[key] = Validation(
             paired_ratio(mine[:, 0], chance[:, 0]),
             paired_ratio(mine[:, 1], chance[:, 1]),

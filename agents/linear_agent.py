@@ -61,3 +61,24 @@ def save_linear_agent(weights: np.ndarray, path: Path, spec: AgentSpec | None = 
         scorer.weights.copy_(torch.as_tensor(weights, dtype=torch.float32))
     venv.close()
     return save_atomic(model, Path(path))
+
+
+def linear_weights(path: str | Path) -> dict[str, float]:
+    """The weights of the linear agent at ``path`` (an ``agent.zip``, its run folder, or
+    ``"bundled"``) by term name: how a search starts from a saved agent
+    (``agents.search.SearchConfig.start``).
+
+    Raises:
+        FileNotFoundError: nothing there.
+        ValueError: the agent there is not a linear one (or cannot be loaded).
+    """
+    from agents.features import LinearScorer
+    from agents.policy import load_model, model_spec
+
+    model = load_model(path)
+    scorer = model.policy.scorer
+    spec = model_spec(model)
+    if not isinstance(scorer, LinearScorer) or spec is None:
+        raise ValueError(f"{path} is not a linear agent (its scorer has no named terms)")
+    values = scorer.weights.detach().double().numpy()
+    return {t.name: float(w) for t, w in zip(spec.terms, values, strict=True)}

@@ -6,7 +6,9 @@ a named gate read from the robot's context. Softmax ignores anything a robot add
 candidates alike, so every term must vary across candidates; the gates let the preference
 depend on the robot's state: whether it has decided its row, and whether it is on swarm duty.
 An agent that sees the crowd features (``agents.spec.AgentSpec.with_crowd_features``) has
-:data:`CROWD_TERMS`: a gate ``crowding`` and a base ``contact_risk`` more. Terms are named
+:data:`CROWD_TERMS`: a gate ``crowding`` and a base ``contact_risk`` more; one searched with
+``size`` has :data:`SIZE_TERMS` more: every base times ``rows_free``, the number of robots in
+the picture on a log scale, in free motion. Terms are named
 ``base*gate`` and computed by name from the columns the spec gives each feature.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
@@ -54,6 +56,13 @@ TERM_GATES = (
 #: ``contact_risk`` times every gate.
 CROWD_BASE = Feature("contact_risk", "the candidate's contact risk (agents.crowd_features)")
 CROWD_GATE = Feature("crowding", "the crowding around the believed self (agents.crowd_features)")
+#: The gate of the size terms (``agents.search.SearchConfig.size``): the context's ``rows``,
+#: ``log(rows + 1) / log(1001)``, in free motion, 0 on swarm duty, so that a preference can
+#: grow or fade with the number of robots in the picture (0.35 at 10 rows, 0.67 at 100, 1 at
+#: 1000) without changing what the robots do on duty (whose terms are gated by ``on_duty``).
+SIZE_GATE = Feature(
+    "rows_free", "log(rows + 1) / log(1001), rows in the picture, in free motion (0 on duty)"
+)
 
 
 def _terms(bases: tuple[Feature, ...], gates: tuple[Feature, ...]) -> tuple[Feature, ...]:
@@ -74,8 +83,10 @@ CROWD_TERMS = (
     + _terms(TERM_BASES, (CROWD_GATE,))
     + _terms((CROWD_BASE,), (*TERM_GATES, CROWD_GATE))
 )
+#: The terms a search with ``size`` adds: every base times the ``rows`` gate.
+SIZE_TERMS = _terms(TERM_BASES, (SIZE_GATE,))
 #: Every term this anonloc can compute, by name.
-KNOWN_TERMS = {t.name: t for t in CROWD_TERMS}
+KNOWN_TERMS = {t.name: t for t in CROWD_TERMS + SIZE_TERMS}
 
 
 def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
@@ -92,6 +103,9 @@ def _gate(name: str, context: Any, column: Mapping[str, int]) -> Any:
         return context[:, None, column["scored"]] * 0.0 + 1.0
     if name == "decided":
         return (context[:, None, column["largest_belief"]] >= DECIDED) * 1.0
+    if name == "rows_free":
+        rows = context[:, None, column["rows"]]
+        return rows * (1.0 - context[:, None, column["on_duty"]])
     return context[:, None, column[name]]
 
 

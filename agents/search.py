@@ -40,58 +40,33 @@ import dataclasses
 import io
 import json
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.candidates import CandidateChooser
 from agents.conditions import (
     ConditionRanges,
     Scenario,
     draw_scenario,
 )
-from agents.evaluation import censored, play, validate_against_uniform
-from agents.linear_agent import LINEAR_SPEC
-from agents.linear_terms import LINEAR_TERMS, check_weights, linear_terms
-from agents.policy import draw
+from agents.evaluation import validate_against_uniform
+from agents.linear_agent import LINEAR_SPEC, linear_weights
+from agents.linear_chooser import LinearChooser, chooser
+from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
 from agents.run_folder import write_text_atomic
+from agents.search_costs import Costing, costs, pool, pooled_player
 from agents.spec import AgentSpec
 from anonloc_env._checks import check_number
-from baselines.excitations import Excitation
-from baselines.excitations.rest import at_rest
 
+__all__ = ["LinearChooser", "SearchConfig", "chooser", "search"]
 
-class LinearChooser(CandidateChooser):
-    """Candidates drawn from ``softmax(terms @ weights)`` with each robot's own generator.
-
-    Args:
-        weights: ``(T,)`` one weight per term of ``spec.terms``; all zeros is ``uniform`` bit
-            for bit.
-        spec: the features and terms (default: :func:`agents.linear_agent.linear_spec`'s, the
-            layout's features and :data:`agents.linear_terms.LINEAR_TERMS`).
-    """
-
-    def __init__(self, weights: np.ndarray, spec: AgentSpec = LINEAR_SPEC) -> None:
-        super().__init__(spec.candidates, features=spec.features)
-        self.weights = check_weights(weights, len(spec.terms))
-        self.terms = spec.terms
-        self.columns = spec.columns()
-
-    def on_scored(self) -> None:
-        if self.cset is None:
-            return
-        obs = self.observation
-        terms = linear_terms(
-            obs["candidates"].astype(np.float64),
-            obs["context"].astype(np.float64),
-            np.stack,
-            self.terms,
-            self.columns,
-        )
-        self.decide(draw(terms @ self.weights, self.rngs))
+#: The numbers of robots a search with ``size`` draws from, beyond ``TRAINING_ROBOTS``
+#: (none of them an evaluation condition's N: 10, 20, 50, 100, 300, 1000).
+SIZE_ROBOTS = (70, 150, 200)
 
 
 @dataclass(frozen=True)
@@ -135,6 +110,22 @@ class SearchConfig:
     (``baselines.excitations.rest.RestWhenSure``): every member and the baseline rest, so the
     search is against ``uniform-rest``, and the saved agent's spec records it; None: no rest,
     the search is against ``uniform``."""
+    size: bool = False
+    """Whether the scorer has the size terms (:data:`agents.linear_terms.SIZE_TERMS`: every
+    base times ``rows_free``, the number of robots in free motion) and the search also draws
+    70, 150 and 200 robots (:data:`SIZE_ROBOTS`), so that a preference can change with N."""
+    against: str = "ablation"
+    """The baseline of every ratio: ``ablation`` (zero weights at the members' rest:
+    ``uniform-rest`` with ``rest``, else ``uniform``) or ``uniform`` (plain ``uniform``, the
+    reference of issue 24's targets, also when the members rest)."""
+    energy_cap: float | None = None
+    """The energy ratio to the baseline at or under which energy costs nothing, in (0, 10]
+    (:func:`agents.search_costs.member_costs`); None: every ratio costs its log."""
+    start: str | None = None
+    """A saved linear agent (``agent.zip``, its folder, or ``bundled``) whose weights, matched
+    by term name, are the first ``mu`` (a term it lacks starts at 0); None: zeros, ``uniform``."""
+    workers: int = 1
+    """Processes that play the episodes, in [1, 256]; the result does not depend on it."""
     ranges: ConditionRanges = field(default_factory=ConditionRanges)
     """The training conditions (:class:`agents.conditions.ConditionRanges`)."""
 
@@ -153,16 +144,15 @@ class SearchConfig:
         check_number("minutes", self.minutes, 0.0, 1e6)
         if self.rest is not None:
             check_number("rest", self.rest, 0.5, 1.0, low_open=True)
+        check_number("workers", self.workers, 1, 256, integer=True)
+        if self.energy_cap is not None:
+            check_number("energy_cap", self.energy_cap, 0.0, 10.0, low_open=True)
+        if self.against not in ("ablation", "uniform"):
+            raise ValueError(f"against must be 'ablation' or 'uniform', got {self.against!r}")
+        if self.start is not None and self.start != "bundled" and not Path(self.start).exists():
+            raise ValueError(f"start must be a saved linear agent or 'bundled': no {self.start}")
         if self.crowd_only and not self.crowd:
             raise ValueError("crowd_only needs crowd (the crowd features and their terms)")
-
-
-def chooser(
-    weights: np.ndarray, rest: float | None = None, spec: AgentSpec = LINEAR_SPEC
-) -> Callable[[], Excitation]:
-    """A maker of the linear scorer of ``spec`` with ``weights`` (zeros: ``uniform``), at rest
-    once its belief reaches ``rest`` (None: never; zeros then: ``uniform-rest``)."""
-    return lambda: at_rest(LinearChooser(weights, spec), rest)
 
 
 def moved_terms(config: SearchConfig) -> np.ndarray:
@@ -178,49 +168,40 @@ def search_spec(config: SearchConfig) -> AgentSpec:
     """The spec of the agent a search finds: linear, with the crowd features when
     ``config.crowd``, at rest when ``config.rest``."""
     spec = dataclasses.replace(LINEAR_SPEC, rest=config.rest)
-    return spec.with_crowd_features() if config.crowd else spec
+    spec = spec.with_crowd_features() if config.crowd else spec
+    return dataclasses.replace(spec, terms=spec.terms + SIZE_TERMS) if config.size else spec
 
 
-def play_weights(
-    scenario: Scenario,
-    weights: np.ndarray,
-    seeds: Sequence[int],
-    pictures: int,
-    rest: float | None = None,
-    spec: AgentSpec = LINEAR_SPEC,
-) -> tuple[np.ndarray, int]:
-    """``(firsts, decisions)``: ``(len(seeds), 2)`` censored pictures to 99 % and energy to
-    99 % (m) of ``bayes`` robots driven by :func:`chooser` ``(weights, rest, spec)``, and the
-    robot-decisions (robots times pictures) the episodes took."""
-    make = chooser(weights, rest, spec)
-    results = play(scenario.config, scenario.condition, scenario.budget, make, seeds, pictures)
-    decisions = sum(len(r.records) for r in results)
-    return np.array([censored(r, pictures) for r in results], np.float64), decisions
+def costing(config: SearchConfig) -> Costing:
+    """How ``config``'s generations play and judge their episodes: the baseline rests like the
+    members with ``against == "ablation"``, never with ``"uniform"``."""
+    return Costing(
+        pictures=config.pictures,
+        rest=config.rest,
+        baseline_rest=config.rest if config.against == "ablation" else None,
+        energy_weight=config.energy_weight,
+        energy_cap=config.energy_cap,
+    )
 
 
-def costs(
-    members: np.ndarray, scenarios: Sequence[tuple[Scenario, Sequence[int]]], config: SearchConfig
-) -> tuple[np.ndarray, np.ndarray, int]:
-    """``(cost (P,), ratios (P, 2), decisions)``: each member's cost, its geometric-mean
-    picture and energy ratios to ``uniform`` over ``scenarios`` (each with its seeds), and
-    the robot-decisions played (``uniform``'s included)."""
-    ratios = np.zeros((len(members), len(scenarios), 2))
-    total = 0
-    spec = search_spec(config)
-    for s, (scenario, seeds) in enumerate(scenarios):
-        chance, decisions = play_weights(
-            scenario, np.zeros(len(spec.terms)), seeds, config.pictures, config.rest, spec
-        )
-        total += decisions
-        base = np.maximum(chance.mean(axis=0), 1e-9)
-        for m, weights in enumerate(members):
-            played, decisions = play_weights(
-                scenario, weights, seeds, config.pictures, config.rest, spec
-            )
-            ratios[m, s] = played.mean(axis=0) / base
-            total += decisions
-    logs = np.log(ratios).mean(axis=1)
-    return logs[:, 0] + config.energy_weight * logs[:, 1], np.exp(logs), total
+def search_ranges(config: SearchConfig) -> ConditionRanges:
+    """The conditions a search draws from: ``config.ranges``, with :data:`SIZE_ROBOTS` added to
+    its robots when ``config.size``."""
+    if not config.size:
+        return config.ranges
+    robots = tuple(sorted({*config.ranges.robots, *SIZE_ROBOTS}))
+    return dataclasses.replace(config.ranges, robots=robots)
+
+
+def first_mu(config: SearchConfig) -> list[float]:
+    """The search's first ``mu``: zeros (``uniform``), or ``config.start``'s weights by term
+    name (zero for a term it lacks, and for a term the search does not move)."""
+    terms = search_spec(config).terms
+    if config.start is None:
+        return [0.0] * len(terms)
+    weights = linear_weights(config.start)
+    moved = moved_terms(config)
+    return [weights.get(t.name, 0.0) * float(m) for t, m in zip(terms, moved, strict=True)]
 
 
 def validate(
@@ -230,17 +211,21 @@ def validate(
     rest: float | None = None,
     spec: AgentSpec = LINEAR_SPEC,
     crowd: bool = False,
+    executor: Executor | None = None,
 ) -> dict[str, float]:
     """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
     ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
     in free motion and on swarm duty (and, with ``crowd``, in a crowd of 4 robots per m²): the
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``, ``crowd_...``) and the censored mean
-    pictures of both; ``weights`` of ``spec``'s terms."""
+    pictures of both; ``weights`` of ``spec``'s terms. ``executor`` plays the episodes in its
+    processes (the same episodes; None: here)."""
     out: dict[str, float] = {}
-    ablation = chooser(np.zeros(len(spec.terms)), rest, spec)
+    zeros = np.zeros(len(spec.terms))
+    ablation = chooser(zeros, rest, spec)
+    player = None if executor is None else pooled_player(executor, (weights, zeros), rest, spec)
     validations = validate_against_uniform(
-        chooser(weights, rest, spec), episodes, pictures, ablation, crowd
+        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player
     )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
@@ -268,7 +253,7 @@ def generation_scenarios(config: SearchConfig, generation: int) -> list[tuple[Sc
     rng = np.random.default_rng([config.seed, generation, 0x5EA4C])
     out = []
     for _ in range(config.scenarios):
-        scenario = draw_scenario(rng, config.ranges)
+        scenario = draw_scenario(rng, search_ranges(config))
         seeds = [int(s) for s in rng.integers(0, 2**31, config.seeds)]
         out.append((scenario, seeds))
     return out
@@ -282,15 +267,23 @@ def centered_ranks(cost: np.ndarray) -> np.ndarray:
     return ranks / max(len(cost) - 1, 1) - 0.5
 
 
-def step(state: SearchState, config: SearchConfig, log: Callable[[dict[str, Any]], None]) -> None:
-    """One generation: draw mirrored pairs, play them with ``mu`` and ``uniform`` on the same
-    scenarios and seeds, move ``mu`` down the estimated gradient; ``state`` moves on."""
+def step(
+    state: SearchState,
+    config: SearchConfig,
+    log: Callable[[dict[str, Any]], None],
+    executor: Executor | None = None,
+) -> None:
+    """One generation: draw mirrored pairs, play them with ``mu`` and the baseline on the same
+    scenarios and seeds (in ``executor``'s processes, or here), move ``mu`` down the estimated
+    gradient; ``state`` moves on."""
     start = time.perf_counter()
     rng = np.random.default_rng([config.seed, state.generation, 0xD4A3])
     mu = np.asarray(state.mu)
     noise = rng.standard_normal((config.pairs, len(mu))) * moved_terms(config)
     members = np.vstack([mu, mu + config.std * noise, mu - config.std * noise])
-    cost, ratios, decisions = costs(members, generation_scenarios(config, state.generation), config)
+    scenarios = generation_scenarios(config, state.generation)
+    spec = search_spec(config)
+    cost, ratios, decisions = costs(members, scenarios, costing(config), spec, executor)
     ranks = centered_ranks(cost[1:])
     plus, minus = ranks[: config.pairs], ranks[config.pairs :]
     gradient = ((plus - minus)[:, None] * noise).mean(axis=0)
@@ -343,21 +336,8 @@ def search(
     """
     from agents.linear_agent import save_linear_agent
 
-    directory.mkdir(parents=True, exist_ok=True)
+    state, history = _open(config, directory, resume)
     path = directory / "search.json"
-    if path.exists() and not resume:
-        raise FileExistsError(f"{directory} holds a search: resume it, or choose another folder")
-    if resume:
-        if not path.exists():
-            raise FileNotFoundError(f"no search to resume in {directory}")
-        saved = json.loads(path.read_text())
-        if {**_config_json(SearchConfig()), **saved["config"]} != _config_json(config):
-            raise ValueError(f"{directory} was searched with another config: {saved['config']}")
-        state = SearchState(**saved["state"])
-        history: list[dict[str, Any]] = saved["history"]
-    else:
-        state = SearchState(mu=[0.0] * len(search_spec(config).terms))
-        history = []
 
     def save() -> None:
         data = {
@@ -368,33 +348,72 @@ def search(
         write_text_atomic(path, json.dumps(data, indent=1))
         _write_progress(directory, history)
 
+    executor = pool(config.workers)
+
     def validate_mu() -> dict[str, float]:
         spec = search_spec(config)
         mu = np.asarray(state.mu)
         return validate(
-            mu, config.validation_episodes, config.pictures, config.rest, spec, config.crowd
+            mu,
+            config.validation_episodes,
+            config.pictures,
+            config.rest,
+            spec,
+            config.crowd,
+            executor,
         )
 
     started = time.perf_counter()
-    while state.generation < config.generations:
-        if (time.perf_counter() - started) / 60.0 > config.minutes:
-            log(f"stopped at generation {state.generation}: {config.minutes} min are spent")
-            break
-        row: dict[str, Any] = {}
-        if state.generation % config.validate_every == 0:
-            row |= validate_mu()
-        step(state, config, row.update)
-        history.append({"generation": state.generation - 1, **row})
-        save()
-        log(_summary(history[-1]))
-    last = history[-1] if history else {}
-    if not (last.get("generation") == state.generation and "free_pictures" in last):
-        history.append({"generation": state.generation, **validate_mu()})
-        save()
-        log(_summary(history[-1]))
+    try:
+        while state.generation < config.generations:
+            if (time.perf_counter() - started) / 60.0 > config.minutes:
+                log(f"stopped at generation {state.generation}: {config.minutes} min are spent")
+                break
+            row: dict[str, Any] = {}
+            if state.generation % config.validate_every == 0:
+                row |= validate_mu()
+            step(state, config, row.update, executor)
+            history.append({"generation": state.generation - 1, **row})
+            save()
+            log(_summary(history[-1]))
+        last = history[-1] if history else {}
+        if not (last.get("generation") == state.generation and "free_pictures" in last):
+            history.append({"generation": state.generation, **validate_mu()})
+            save()
+            log(_summary(history[-1]))
+    finally:
+        if executor is not None:
+            executor.shutdown(cancel_futures=True)
     mu = np.asarray(state.mu)
     save_linear_agent(mu, directory / "agent.zip", search_spec(config))
     return mu
+
+
+#: The config fields a resumed search may change: they change how fast it runs, not what it finds.
+RESUMABLE_FIELDS = ("workers", "minutes")
+
+
+def _open(
+    config: SearchConfig, directory: Path, resume: bool
+) -> tuple[SearchState, list[dict[str, Any]]]:
+    """The state and history a search in ``directory`` starts from (see :func:`search`)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "search.json"
+    if path.exists() and not resume:
+        raise FileExistsError(f"{directory} holds a search: resume it, or choose another folder")
+    if not resume:
+        return SearchState(mu=first_mu(config)), []
+    if not path.exists():
+        raise FileNotFoundError(f"no search to resume in {directory}")
+    saved = json.loads(path.read_text())
+    before = {**_config_json(SearchConfig()), **saved["config"]}
+    now = _config_json(config)
+    for name in RESUMABLE_FIELDS:
+        before.pop(name, None)
+        now.pop(name, None)
+    if before != now:
+        raise ValueError(f"{directory} was searched with another config: {saved['config']}")
+    return SearchState(**saved["state"]), saved["history"]
 
 
 def _config_json(config: SearchConfig) -> dict[str, Any]:

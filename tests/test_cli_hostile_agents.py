@@ -17,6 +17,8 @@ from tests.cli_helpers import SCRIPT, read_csv, run_script, script_env
 
 pytest.importorskip("stable_baselines3")
 
+from agents.linear_agent import linear_weights, save_linear_agent
+from agents.linear_terms import LINEAR_TERMS
 from agents.policy import BUNDLED
 
 #: The documented limit of a saved agent's ``data`` member (docs/cli.md; agents.saved_agent).
@@ -27,12 +29,17 @@ SHORT = ("--seeds", "1", "--pictures", "3", "--workers", "1")
 
 
 def _without_spec(tmp_path: Path) -> Path:
-    """The bundled agent as an agent saved before specs existed: its run folder's
-    ``config.json`` then decides its condition."""
-    with zipfile.ZipFile(BUNDLED) as source:
+    """An agent saved before specs existed: the linear scorer's 18 terms (the bundled agent's
+    weights for them), with no spec in its ``policy_kwargs``; its run folder's ``config.json``
+    then decides its condition."""
+    weights = linear_weights("bundled")
+    older = save_linear_agent(
+        np.array([weights[t.name] for t in LINEAR_TERMS]), tmp_path / "older.zip"
+    )
+    with zipfile.ZipFile(older) as source:
         data = json.loads(source.read("data"))
     data["policy_kwargs"].pop("spec", None)
-    return _rewritten(tmp_path, "nospec.zip", "data", json.dumps(data).encode())
+    return _rewritten(tmp_path, "nospec.zip", "data", json.dumps(data).encode(), older)
 
 
 def _run_folder(tmp_path: Path, train: object) -> Path:
@@ -43,10 +50,10 @@ def _run_folder(tmp_path: Path, train: object) -> Path:
     return run
 
 
-def _rewritten(tmp_path: Path, name: str, member: str, data: bytes) -> Path:
-    """The bundled agent with ``member`` replaced by ``data``."""
+def _rewritten(tmp_path: Path, name: str, member: str, data: bytes, agent: Path = BUNDLED) -> Path:
+    """``agent`` (the bundled one) with ``member`` replaced by ``data``."""
     path = tmp_path / name
-    with zipfile.ZipFile(BUNDLED) as source, zipfile.ZipFile(path, "w") as target:
+    with zipfile.ZipFile(agent) as source, zipfile.ZipFile(path, "w") as target:
         for info in source.infolist():
             body = data if info.filename == member else source.read(info.filename)
             target.writestr(info.filename, body, compress_type=zipfile.ZIP_DEFLATED)

@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -84,6 +85,17 @@ SCALE_MEMORY = 0.2
 MATCH_ROUNDS = 6
 #: Median length of a two-dimensional standard Gaussian vector: ``sqrt(2 ln 2)``.
 RAYLEIGH_MEDIAN = math.sqrt(2.0 * math.log(2.0))
+
+
+class Anchors(NamedTuple):
+    """Rows ``row`` of the previous picture whose robot the identifier is sure of, where each
+    should be in the new picture (``target``, ``(K, 2)``, the previous picture's registered
+    frame) and the spread of that prediction (``sigma``, image units per component, the new
+    row's pixel noise in it): built by ``anchors.sure_moves``."""
+
+    row: np.ndarray
+    target: np.ndarray
+    sigma: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -259,18 +271,21 @@ class Registration:
             return shared(float(pos_var[0]) + extra, len(pos_var))
         return pos_var + extra
 
-    def register(self, rows: np.ndarray) -> np.ndarray:
-        """The picture ``rows`` ``(M, 3)`` in the set point's frame (same order)."""
+    def register(self, rows: np.ndarray, anchors: Anchors | None = None) -> np.ndarray:
+        """The picture ``rows`` ``(M, 3)`` in the set point's frame (same order). ``anchors``:
+        rows of the previous picture whose robot the identifier is sure of, and where each
+        should be now (``anchors.sure_moves``), in place of the guess of their motion."""
         rows = np.asarray(rows, dtype=np.float64)
         if self._previous is None or len(rows) == 0 or len(self._previous) == 0:
             registered = apply(self.transform, self.prior.centre, rows)
             self.error = _first_error(self.prior)
             self._remember(registered, None)
             return registered
-        guess = self._predicted()
+        guess = _anchored(self._predicted(), anchors, _residual_floor(self.prior))
         transform, pairs, self.error, scales = self._registered(rows, guess)
         if guess[2].any():  # robots kept a heading: how far the guess that they did not moves it
-            still, _, still_error, _ = self._registered(rows, self._still())
+            still_guess = _anchored(self._still(), anchors, _residual_floor(self.prior))
+            still, _, still_error, _ = self._registered(rows, still_guess)
             gap = apply(transform, self.prior.centre, rows[:, :2])
             gap -= apply(still, self.prior.centre, rows[:, :2])
             expected = max(still_error**2 - self.error**2, 0.0)
@@ -286,7 +301,7 @@ class Registration:
         return registered
 
     def _registered(
-        self, rows: np.ndarray, guess: tuple[np.ndarray, np.ndarray, np.ndarray]
+        self, rows: np.ndarray, guess: tuple[np.ndarray, ...]
     ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], float, list[float | None]]:
         """The transform of ``rows`` to the previous rows' places ``guess`` (coarse shift, then
         matched and fitted until the matches hold, at most ``MATCH_ROUNDS`` times), its
@@ -304,16 +319,16 @@ class Registration:
             transform, error, scales = self._fit(rows[:, :2], pairs, guess, transform)
         return transform, pairs, error, scales
 
-    def _still(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _still(self) -> tuple[np.ndarray, ...]:
         """The guess that no robot kept its heading: each previous row's robot moves the team's
         typical step in any direction (what :meth:`_predicted` guesses for those without one)."""
         assert self._previous is not None
         assert self._step is not None
         count = len(self._previous)
         spread = max(self._step / math.sqrt(2.0), _residual_floor(self.prior))
-        return self._previous.copy(), np.full(count, spread), np.zeros(count, bool)
+        return self._previous.copy(), np.full(count, spread), np.zeros(count, bool), _none(count)
 
-    def _predicted(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _predicted(self) -> tuple[np.ndarray, ...]:
         """Where each previous row's robot should be now, the spread of that guess (image units,
         per component, before the fit rescales it) and whether it kept a heading: a robot that
         moved keeps its heading and moves the team's typical step; one that did not, or whose
@@ -323,7 +338,7 @@ class Registration:
         target = self._previous.copy()
         count = len(target)
         if self._step is None:  # the first interval: nothing known of the robots' motion
-            return target, np.full(count, self.prior.spread), np.zeros(count, bool)
+            return target, np.full(count, self.prior.spread), np.zeros(count, bool), _none(count)
         floor = _residual_floor(self.prior)
         sigma = np.full(count, max(self._step / math.sqrt(2.0), floor))
         length = np.hypot(self._motion[:, 0], self._motion[:, 1])
@@ -332,13 +347,13 @@ class Registration:
         if self._step > 0.0:
             target[directed] += self._motion[directed] * (self._step / length[directed])[:, None]
             sigma[directed] = max(DIRECTED_SHARE * self._step, floor)
-        return target, sigma, directed
+        return target, sigma, directed, _none(count)
 
     def _coarse_shift(self, moved: np.ndarray, guess: tuple[np.ndarray, ...]) -> np.ndarray:
         """``(2,)`` the shift most pairs of rows agree on: the mode of the pairs' offsets
         (mean shift, its kernel narrowed from twice the camera's expected change to a robot's
         spread), so that a camera change as large as the robots' spacing is still matched."""
-        target, sigma, _ = guess
+        target, sigma = guess[0], guess[1]
         i, j, _ = pairs_within(moved, target, self.prior.reach)
         shift = np.zeros(2)
         if len(i) == 0:
@@ -365,7 +380,7 @@ class Registration:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Mutual nearest pairs ``(row, previous row)`` between the rows ``moved`` (through the
         current transform) and the previous rows' predicted places, within the reach."""
-        target, sigma, _ = guess
+        target, sigma = guess[0], guess[1]
         i, j, dist = pairs_within(moved, target, self.prior.reach)
         if len(i) == 0:
             return i, j
@@ -387,7 +402,7 @@ class Registration:
         spreads shrunk towards the running scales) and this picture's robust scales of the
         directed pairs and the others (``None`` where too few)."""
         i, j = pairs
-        target, sigma0, directed = guess
+        target, sigma0, directed, sure = guess
         cu, cv = self.prior.centre
         du, dv = raw[i, 0] - cu, raw[i, 1] - cv
         # Rows of the design: u' - cu = a du - b dv + tx, v' - cv = b du + a dv + ty.
@@ -403,14 +418,16 @@ class Registration:
             residual = (observed - design @ transform).reshape(-1, 2)
             norm = np.hypot(residual[:, 0], residual[:, 1])
             if round_:
-                sigma, scales = _rescaled(norm, sigma0[j], directed[j], _residual_floor(self.prior))
+                floor = _residual_floor(self.prior)
+                sigma, scales = _rescaled(norm, sigma0[j], directed[j], floor, sure[j])
             normal = self._normal(design, norm, sigma)
             rhs = design.T @ (np.repeat(_weights(norm, sigma), 2) * observed)
             rhs += self._change_w * self.transform + self._absolute_w * home
             transform = np.linalg.solve(normal, rhs)
         # The stated error takes the spreads shrunk towards the running scales (the fit keeps
         # this picture's own: its transform is the same with or without the shrinking).
-        cov = np.linalg.inv(self._normal(design, norm, _shrunk(sigma, directed[j], self._scales)))
+        shrunk = _shrunk(sigma, directed[j], self._scales, sure[j])
+        cov = np.linalg.inv(self._normal(design, norm, shrunk))
         spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
         error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
         return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0)), scales
@@ -440,6 +457,27 @@ class Registration:
         self._motion = motion
 
 
+def _none(count: int) -> np.ndarray:
+    """No row anchored: ``(count,)`` False."""
+    return np.zeros(count, bool)
+
+
+def _anchored(
+    guess: tuple[np.ndarray, ...], anchors: Anchors | None, floor: float
+) -> tuple[np.ndarray, ...]:
+    """``guess`` ``(target, sigma, directed, sure)`` with the ``anchors``' rows predicted by
+    their robots' own tracks (their spreads at least ``floor``), sure and not directed."""
+    if anchors is None:
+        return guess
+    target, sigma, directed, sure = (a.copy() for a in guess)
+    row = anchors.row
+    target[row] = anchors.target
+    sigma[row] = np.maximum(anchors.sigma, floor)
+    directed[row] = False
+    sure[row] = True
+    return target, sigma, directed, sure
+
+
 def _first_error(prior: RegistrationPrior) -> float:
     """The error of a picture registered with nothing to match (the previous picture's
     transform kept): the camera's change itself, per coordinate over the view."""
@@ -460,27 +498,35 @@ def _weights(norm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 
 
 def _rescaled(
-    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float
+    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float, sure: np.ndarray
 ) -> tuple[np.ndarray, list[float | None]]:
     """The guesses' spreads ``sigma`` set, for the directed and the other pairs apart where
     each has :data:`MIN_PAIRS`, to their residuals' robust scale: the median residual length
     over a two-dimensional Gaussian's (:data:`RAYLEIGH_MEDIAN`); and those scales (``None``
-    where too few pairs)."""
+    where too few pairs). The anchored pairs (``sure``) keep their own spreads, widened by
+    their residuals' robust scale over those spreads where that is above one (where a
+    similarity cannot follow the picture, or an anchor was wrong)."""
     out = sigma.copy()
     scales: list[float | None] = [None, None]
-    for k, group in enumerate((directed, ~directed)):
+    for k, group in enumerate((directed & ~sure, ~directed & ~sure)):
         if int(group.sum()) >= MIN_PAIRS:
             scales[k] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
             out[group] = scales[k]
+    if int(sure.sum()) >= MIN_PAIRS:
+        ratio = float(np.median(norm[sure] / sigma[sure])) / RAYLEIGH_MEDIAN
+        out[sure] = sigma[sure] * max(ratio, 1.0)
     return out, scales
 
 
-def _shrunk(sigma: np.ndarray, directed: np.ndarray, running: list[float | None]) -> np.ndarray:
+def _shrunk(
+    sigma: np.ndarray, directed: np.ndarray, running: list[float | None], sure: np.ndarray
+) -> np.ndarray:
     """The spreads ``sigma`` of the directed pairs and of the others shrunk towards the
     ``running`` scale of their group (where there is one), weighed as
-    :data:`SCALE_PRIOR_PAIRS` pairs against the group's own."""
+    :data:`SCALE_PRIOR_PAIRS` pairs against the group's own (the anchored pairs, ``sure``,
+    keep theirs)."""
     out = sigma.copy()
-    for k, group in enumerate((directed, ~directed)):
+    for k, group in enumerate((directed & ~sure, ~directed & ~sure)):
         count, before = int(group.sum()), running[k]
         if count and before is not None:
             mixed = SCALE_PRIOR_PAIRS * before**2 + count * np.square(sigma[group])

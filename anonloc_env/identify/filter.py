@@ -12,6 +12,7 @@ import numpy as np
 
 from anonloc_env import compiled
 from anonloc_env.identify import fused, fused_calls, kernels
+from anonloc_env.identify.anchors import sure_moves
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
 from anonloc_env.identify.camera_pose import Registration, apply
 from anonloc_env.identify.children import MISSED_PER_ROBOT, Builder
@@ -21,7 +22,7 @@ from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.likelihood import Pairs, Scoring
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_background
 from anonloc_env.identify.others import Links, links_between
-from anonloc_env.identify.out_of_view import OutOfView
+from anonloc_env.identify.out_of_view import OutOfView, claimed_elsewhere
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import pairs_within
 from anonloc_env.odometry import Interval
@@ -110,8 +111,12 @@ class Identifier:
             interval: each robot's motion since the previous picture; ignored for the first one.
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
-        if self.registration is not None:
-            rows = self.registration.register(rows)
+        if self.registration is not None:  # anchored by the robots it is sure of
+            sure = None
+            if interval is not None and self.rows is not None:
+                noise = self.registration.prior.pixel_noise
+                sure = sure_moves(self.tracks, interval, self.model, noise, self.scoring.theta_var)
+            rows = self.registration.register(rows, sure)
         n_rows = len(rows)
         view = self._out_of_view()
         log_bg = log_background(self.model, n_rows, 1.0 if view is None else view.footprint.share)
@@ -144,6 +149,10 @@ class Identifier:
         self.row_bias = bias
         self.pictures += 1
         self._normalise_and_prune(parts)
+        if view is not None:  # a moving camera: rows another robot is sure of (out_of_view)
+            self.tracks, self.uniform, self.unanchored = claimed_elsewhere(
+                self.tracks, self.uniform, self.unanchored, self._log_rows()
+            )
         self._compute_belief()
 
     def _out_of_view(self) -> OutOfView | None:
@@ -169,9 +178,7 @@ class Identifier:
             return interval
         assert self.rows is not None
         assert interval.push is not None
-        log_rows = math.log(len(self.rows)) if len(self.rows) else -np.inf
-        if len(self.rows) and self.row_bias is not None:
-            log_rows = float(np.logaddexp.reduce(self.row_bias))
+        log_rows = self._log_rows()
         t = self.tracks
         push = np.where(pressed, interval.push, 0.0)
         brk = model.contact_break
@@ -254,6 +261,14 @@ class Identifier:
                 view.uniform_lost(live, prev, interval, pix_var, prior, unanchored)
         return [p for p in parts if len(p)], unanchored
 
+    def _log_rows(self) -> float:
+        """Log of the newest picture's rows' total weight in the uniform weight (their count,
+        or the sum of their bias)."""
+        n_rows = 0 if self.rows is None else len(self.rows)
+        if n_rows and self.row_bias is not None:
+            return float(np.logaddexp.reduce(self.row_bias))
+        return math.log(n_rows) if n_rows else -np.inf
+
     def _prune_floor(self, parts: list[Tracks]) -> np.ndarray:
         """``(R,)`` :data:`PRUNE_NATS` below each robot's best track in ``parts`` (-inf: none)."""
         floor = np.full(self.n, -np.inf)
@@ -274,10 +289,7 @@ class Identifier:
         else:
             slot = np.concatenate([np.zeros(0, np.int64)] + [p.slot for p in parts])
             logw = np.concatenate([np.zeros(0)] + [p.logw for p in parts])
-        n_rows = 0 if self.rows is None else len(self.rows)
-        log_rows = math.log(n_rows) if n_rows else -np.inf
-        if n_rows and self.row_bias is not None:
-            log_rows = float(np.logaddexp.reduce(self.row_bias))
+        log_rows = self._log_rows()
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
         # The fields are gathered once, in the final order (the same order either way).

@@ -157,3 +157,74 @@ class OutOfView:
             spread = np.logaddexp(spread, np.logaddexp.reduce(terms, axis=1))
         lost = prior.uniform[live] + spread
         unanchored[live] = np.logaddexp(unanchored[live], lost)
+
+
+#: A robot claims a row of the newest picture when its tracks there hold at least this share of
+#: its weight (see ``claimed_elsewhere``).
+CLAIM = 0.99
+#: Tracks lighter than this share of their robot's weight are not looked at for claims.
+CLAIM_SCAN = 0.01
+
+
+def claimed_elsewhere(
+    tracks: Tracks, uniform: np.ndarray, unanchored: np.ndarray, log_rows: float
+) -> tuple[Tracks, np.ndarray, np.ndarray]:
+    """The identifier's normalised weights after a picture with a footprint, with the rows
+    another robot claims taken from the rest: a track of robot ``k`` at a row that robot ``j``
+    claims (its tracks there hold ``p >= CLAIM``) is weighed by ``1 - p``, and each touched
+    robot's weights are normalised again (its tracks still sorted heaviest first).
+
+    Why: a robot carried out of view is missed there at no cost, while a rival track of it at
+    another robot's row gains ``P_D f / lambda`` at every picture (the clutter model draws the
+    other rows afresh): a robot stuck in a corner, which the drift carries out of view every
+    few pictures, ended on a still robot's row (the windy condition's wrong decisions at
+    N = 10). Each row is at most one robot: where another robot is sure of it, mine is the rest.
+    Only claims count, not every robot's share of a row (those sum to about one for every row
+    while nobody is sure, and would square every belief).
+
+    Args:
+        tracks: the tracks (``exp(logw)`` each one's probability), grouped by robot, heaviest
+            first.
+        uniform: ``(R,)`` each robot's log weight of each row in its uniform weight.
+        unanchored: ``(R,)`` each robot's log weight of "position unknown".
+        log_rows: log of the rows' total weight in the uniform weight.
+    """
+    w = np.exp(tracks.logw)
+    scan = np.flatnonzero((w >= CLAIM_SCAN) & (tracks.row >= 0))
+    if not len(scan):
+        return tracks, uniform, unanchored
+    n_rows = int(tracks.row.max()) + 1
+    key = tracks.slot[scan] * n_rows + tracks.row[scan]
+    keys, where = np.unique(key, return_inverse=True)
+    held = np.bincount(where, weights=w[scan])
+    claim = held >= CLAIM
+    if not claim.any():
+        return tracks, uniform, unanchored
+    robot, row = keys[claim] // n_rows, keys[claim] % n_rows
+    by_row = np.full(n_rows, -1)
+    by_row[row] = robot  # a robot claims one row at most; two robots one row: both hit
+    share = np.zeros(n_rows)
+    np.add.at(share, row, held[claim])
+    at = tracks.row >= 0
+    rival = np.flatnonzero(at & (by_row[np.where(at, tracks.row, 0)] >= 0))
+    rival = rival[by_row[tracks.row[rival]] != tracks.slot[rival]]
+    if not len(rival):
+        return tracks, uniform, unanchored
+    others = np.minimum(share[tracks.row[rival]], 1.0 - 1e-6)
+    logw = tracks.logw.copy()
+    logw[rival] += np.log1p(-others)
+    touched = np.unique(tracks.slot[rival])
+    # Each touched robot's weights normalised again.
+    total = np.exp(uniform + log_rows) + np.exp(unanchored)
+    total += np.bincount(tracks.slot, weights=np.exp(logw), minlength=len(uniform))
+    shift = np.zeros(len(uniform))
+    shift[touched] = np.log(total[touched])
+    logw -= shift[tracks.slot]
+    # Heaviest first again within the touched robots (their runs, in place).
+    inside = np.isin(tracks.slot, touched)
+    idx = np.flatnonzero(inside)
+    order = np.arange(len(logw))
+    order[idx] = idx[np.lexsort((-logw[idx], tracks.slot[idx]))]
+    out = tracks.take(order)
+    out.logw = logw[order]
+    return out, uniform - shift, unanchored - shift

@@ -1,0 +1,79 @@
+"""Variants of the bundled linear agent, made by named edits of its weights (issue 24, seventh
+round): how much of its preference for cheap candidates it keeps as the team grows, and on duty.
+
+The bundled agent prefers the cheaper and shorter of its candidates, even while unsure
+(``energy*always`` -1.32, ``reach*always`` -1.26, ``speed*always`` -0.77, ``speed_sq*always``
++0.37). On free N = 100 and 300 that preference costs 13 to 21 % in pictures against
+``uniform``. The variants scale it with the number of robots in the picture through the size
+terms (:data:`agents.linear_terms.SIZE_TERMS`): ``size BETA`` sets ``base*rows_free`` to
+``-BETA`` times ``base*always`` for those four bases, so the preference of an unsure robot in
+free motion is ``w * (1 - BETA * rows)`` (``rows`` is 0.35 at N = 10, 0.67 at N = 100, 0.83 at
+N = 300, 1 at N = 1000), and on duty it is unchanged; ``duty D`` adds ``D`` to
+``energy*on_duty`` (-1.5, -5, -20: ever cheaper deviations on duty); ``flat`` zeroes the four
+``always``
+weights. The variants are saved as ordinary linear agents (``agents.linear_agent``).
+
+Usage::
+
+    python -m benchmarks.agent_variants OUT_DIR --base BASE.zip  # OUT_DIR/NAME.zip for each
+
+The seventh round's variants were made from the agent bundled until then (``--base``: ``git show
+ec78ad0:agents/data/agent.zip > base.zip``); ``size-1.0`` is the agent bundled since.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from agents.linear_agent import linear_weights, save_linear_agent
+from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
+from agents.policy import agent_file
+from agents.spec import saved_spec
+
+#: The bases whose unsure (``always``) preference the variants scale.
+CHEAP_BASES = ("energy", "reach", "speed", "speed_sq")
+#: Every variant: name -> (BETA of the size terms, D added on duty, flat).
+VARIANTS = {
+    "size-0.5": (0.5, 0.0, False),
+    "size-1.0": (1.0, 0.0, False),
+    "size-1.0-duty": (1.0, -1.5, False),
+    "size-1.0-duty-5": (1.0, -5.0, False),
+    "size-1.0-duty-20": (1.0, -20.0, False),
+    "flat": (0.0, 0.0, True),
+}
+
+
+def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: bool) -> np.ndarray:
+    """The weights of one variant over ``LINEAR_TERMS + SIZE_TERMS`` (see the module)."""
+    out = {t.name: bundled.get(t.name, 0.0) for t in LINEAR_TERMS + SIZE_TERMS}
+    for base in CHEAP_BASES:
+        out[f"{base}*rows_free"] = -beta * bundled[f"{base}*always"]
+        if flat:
+            out[f"{base}*always"] = 0.0
+    out["energy*on_duty"] += duty
+    return np.array([out[t.name] for t in LINEAR_TERMS + SIZE_TERMS])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path, help="folder for the variants' agent.zip files")
+    parser.add_argument("--base", default="bundled", help="the linear agent the edits start from")
+    args = parser.parse_args()
+    bundled = linear_weights(args.base)
+    spec = saved_spec(agent_file(args.base))
+    assert spec is not None  # the bundled agent has a spec
+    spec = dataclasses.replace(spec, terms=LINEAR_TERMS + SIZE_TERMS)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name, (beta, duty, flat) in VARIANTS.items():
+        path = save_linear_agent(
+            variant_weights(bundled, beta, duty, flat), args.out / f"{name}.zip", spec
+        )
+        print(f"{name}: {path}")
+
+
+if __name__ == "__main__":
+    main()
