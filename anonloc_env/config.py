@@ -170,6 +170,12 @@ class CameraConfig:
             0), at most 49, at least ``robot.size`` apart. Every picture carries each landmark
             seen, with the same noise and
             misses as a robot's detection: what a localizer needs to know the camera's pose.
+        pooled_motion: a moving camera without landmarks, registered by the robots the
+            identifier is sure of (their tracks, so their odometry, predict their rows) and each
+            row another robot is sure of taken from the rest: the robots then share their
+            motions (communication, which the paper's robots do not have; ``docs/drone.md``).
+            False (the default): robot i's belief depends on the pictures and its own motion
+            only.
     """
 
     scale: float = 100.0
@@ -195,6 +201,7 @@ class CameraConfig:
     wobble_time: float = 1.0
     gimbal_bandwidth: float = 0.0
     landmarks: tuple[tuple[float, float], ...] = ()
+    pooled_motion: bool = False
 
     def __post_init__(self) -> None:
         check_number("camera.scale", self.scale, 0.0, MAX_IMAGE_COORDINATE, low_open=True)
@@ -214,6 +221,10 @@ class CameraConfig:
         check_number("camera.pixel_noise", self.pixel_noise, 0.0, 1e6)
         if not isinstance(self.orientation, bool):
             raise TypeError(f"camera.orientation must be True or False, got {self.orientation!r}")
+        if not isinstance(self.pooled_motion, bool):
+            raise TypeError(
+                f"camera.pooled_motion must be True or False, got {self.pooled_motion!r}"
+            )
         check_number(
             "camera.orientation_noise_deg", self.orientation_noise_deg, 0.0, 180.0, high_open=True
         )

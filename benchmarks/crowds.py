@@ -117,6 +117,64 @@ class _PoseTap:
         return out
 
 
+def parse_changes(texts: Sequence[str]) -> dict[str, tuple[str, float]]:
+    """``NAME=VALUE`` (set) and ``NAME*=FACTOR`` (scale) changes of ``SensorModel`` fields, as
+    ``{name: (op, number)}``; a name that is no numeric field of the model is refused."""
+    numeric = {"push_share", "crowd_push_share", "crowd_push_tail", "crowd_jam", "contact_break"}
+    out: dict[str, tuple[str, float]] = {}
+    for text in texts:
+        op = "*=" if "*=" in text else "="
+        name, _, value = text.partition(op)
+        if name not in numeric:
+            raise ValueError(f"--model changes one of {sorted(numeric)}, got {text!r}")
+        try:
+            out[name] = (op, float(value))
+        except ValueError:
+            raise ValueError(f"--model {name} takes a number, got {value!r}") from None
+    return out
+
+
+def changed(model: SensorModel, changes: Mapping[str, tuple[str, float]]) -> SensorModel:
+    """``model`` with ``changes`` (see :func:`parse_changes`) applied; a field the model leaves
+    unset (None) stays so."""
+    fields: dict[str, Any] = {}
+    for name, (op, number) in changes.items():
+        now = getattr(model, name)
+        if now is None:
+            continue
+        value = now * number if op == "*=" else number
+        fields[name] = int(value) if name == "crowd_jam" else float(value)
+    return dataclasses.replace(model, **fields)
+
+
+class ModelChanges:
+    """Within ``with ModelChanges(changes):`` every ``SensorModel.from_config`` (so every
+    ``bayes`` team's identifier) has ``changes`` applied (see :func:`changed`): the tuning
+    variants of ``docs/crowds.md``. Nothing changes without changes."""
+
+    def __init__(self, changes: Mapping[str, tuple[str, float]]) -> None:
+        self.changes = dict(changes)
+
+    def __enter__(self) -> ModelChanges:
+        from anonloc_env.identify import model as sensor
+
+        self._saved = original = sensor._from_config
+        if self.changes:
+            changes = self.changes
+
+            @functools.lru_cache(maxsize=64)
+            def patched(config: EnvConfig, scale_known: bool) -> SensorModel:
+                return changed(original(config, scale_known), changes)
+
+            sensor._from_config = patched  # type: ignore[assignment]  # the switch
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        from anonloc_env.identify import model as sensor
+
+        sensor._from_config = self._saved  # type: ignore[assignment]
+
+
 def make_excitation(name: str, extra: Mapping[str, Callable[[], Excitation]]) -> Excitation:
     """A named excitation, or one of ``extra`` (e.g. the learned agent)."""
     return extra[name]() if name in extra else EXCITATIONS[name]()
@@ -298,6 +356,11 @@ def score_cell(episodes: Sequence[Played]) -> dict[str, Any]:
         float(np.mean([r.correct for r in records if r.picture == k])) for k in range(pictures)
     ]
     scores = Scores(pictures)
+    expected = 0.0  # sum of 1 - belief over the confident decisions: the wrong ones if calibrated
+    for p in episodes:
+        for top in p.top:
+            sure = top[top >= THRESHOLD]
+            expected += float(np.sum(1.0 - sure))
     for p in episodes:
         for k, (top, row) in enumerate(zip(p.top, p.top_row, strict=False)):
             true = p.result.true_rows[k]
@@ -309,6 +372,7 @@ def score_cell(episodes: Sequence[Played]) -> dict[str, Any]:
         "pictures": dataclasses.asdict(summary.pictures_all),
         "decided": len(decided),
         "wrong": wrong,
+        "expected_wrong": expected,
         "share": share,
         "fall_after_95": largest_fall(share),
         "reliability": reliability(scores),
@@ -396,10 +460,14 @@ def _line(cell: Mapping[str, Any], rule: str | None = None) -> str:
     fall = scored["fall_after_95"]
     fall_text = "never 95 %" if fall is None else f"{100 * fall:.1f} pt"
     name = cell["excitation"] if rule is None else f"{cell['excitation']}, {rule}"
+    expected = scored.get("expected_wrong")
+    count = (
+        f"{scored['wrong']}" if expected is None else f"{scored['wrong']}; {expected:.1f} expected"
+    )
     return (
         f"| {cell['density']:g} | {cell['n']} | {name} | {p['mean']:.2f} "
         f"[{p['low']:.2f}, {p['high']:.2f}] | {scored['reached']}/{cell['episodes']} "
-        f"| {wrong:.2f} % of {scored['decided']:,} ({scored['wrong']}) | {fall_text} |"
+        f"| {wrong:.2f} % of {scored['decided']:,} ({count}) | {fall_text} |"
     )
 
 
@@ -527,6 +595,13 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument(
         "--rules", action="store_true", help="score the decision rules of RULES beside bayes's own"
     )
+    r.add_argument(
+        "--model",
+        nargs="+",
+        default=[],
+        metavar="CHANGE",
+        help="identifier model changes, NAME=VALUE or NAME*=FACTOR (e.g. crowd_push_tail=1)",
+    )
     t = sub.add_parser("table", help="the markdown table of a results JSON")
     t.add_argument("results")
     p = sub.add_parser("plot")
@@ -570,7 +645,8 @@ def main(argv: list[str] | None = None) -> None:
         )
         print("|---|---|---|---|---|---|---|")
         grid = (args.densities, args.robots, names, args.episodes, args.first_seed)
-        results(*grid, extra, args.json, list(RULES) if args.rules else [])
+        with ModelChanges(parse_changes(args.model)):
+            results(*grid, extra, args.json, list(RULES) if args.rules else [])
     elif args.command == "open-space":
         names, extra = list(args.excitations), _agent(args.agent)
         names += list(extra)

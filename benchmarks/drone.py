@@ -49,13 +49,16 @@ def condition_config(
     source: str = "geometric",
     pixel_noise: float = 1.0,
     view_margin: float = 0.0,
+    pooled: bool = False,
 ) -> Any:
     """The results' condition: ``preset``'s camera, N robots at 1 per m^2, ``pixel_noise``
     (1 px in the results; more to see what a noisier fixed camera costs), no headings.
     ``view_margin`` (m, each side; 0 in the results): a field of view wider than the arena by
-    that much, so that the drift carries no robot out of the picture."""
+    that much, so that the drift carries no robot out of the picture. ``pooled``: the robots
+    share their motions (``camera.pooled_motion``; a communication)."""
     side = math.sqrt(n)
     camera: dict[str, Any] = {"pixel_noise": pixel_noise, "orientation": False, "source": source}
+    camera["pooled_motion"] = pooled
     if landmarks:
         camera["landmarks"] = border_landmarks((side, side))
     config = anonloc_env.make_config(
@@ -125,9 +128,10 @@ def run_condition(
     source: str = "geometric",
     pixel_noise: float = 1.0,
     view_margin: float = 0.0,
+    pooled: bool = False,
 ) -> Tally:
     """Play ``episodes`` episodes of one condition."""
-    config = condition_config(preset, n, landmarks, source, pixel_noise, view_margin)
+    config = condition_config(preset, n, landmarks, source, pixel_noise, view_margin, pooled)
     tally = Tally()
     start = time.perf_counter()
     for k in range(episodes):
@@ -213,10 +217,10 @@ def worst_step(
     register = registration.register if registration is not None else None
     spent = [0.0]
 
-    def timed_register(rows: np.ndarray) -> np.ndarray:
+    def timed_register(rows: np.ndarray, anchors: Any = None) -> np.ndarray:
         start = time.perf_counter()
         assert register is not None
-        out = register(rows)
+        out = register(rows, anchors)
         spent[0] = time.perf_counter() - start
         return out
 
@@ -313,6 +317,8 @@ def table(files: list[Path]) -> str:
         first = r["camera"] == "default" and not r["landmarks"] and noise == 1.0 and not margin
         camera = r["camera"] if noise == 1.0 else f"{r['camera']}, {noise:g} px"
         camera += f", view +{margin:g} m" if margin else ""
+        pooled = r.get("pooled_motion") and r["camera"] != "default" and not r["landmarks"]
+        camera += ", pooled" if pooled else ""
         delta = "" if base is None or first else f"{mean - base:+.2f}"
         wrong, decided = r["wrong"]
         share = 100.0 * wrong / decided if decided else 0.0
@@ -348,6 +354,11 @@ def main() -> None:
         default=0.0,
         help="field of view wider than the arena by this much each side (m); 0 in the results",
     )
+    parser.add_argument(
+        "--pooled-motion",
+        action="store_true",
+        help="the robots share their motions (camera.pooled_motion; a communication)",
+    )
     parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
     parser.add_argument(
         "--seed0", type=int, default=SEED0, help="first episode's seed (the rest follow it)"
@@ -375,6 +386,7 @@ def main() -> None:
                     args.source,
                     args.pixel_noise,
                     args.view_margin,
+                    args.pooled_motion,
                 )
                 mean = bootstrap_mean(t.pictures)
                 pose = float(np.sqrt(np.mean(np.square(t.pose_errors)))) if t.pose_errors else 0.0
@@ -386,6 +398,7 @@ def main() -> None:
                     "source": args.source,
                     "pixel_noise": args.pixel_noise,
                     "view_margin": args.view_margin,
+                    "pooled_motion": args.pooled_motion,
                     "episodes": args.episodes,
                     "seed0": args.seed0,
                     "pictures_to_99": [mean.mean, mean.low, mean.high],

@@ -404,3 +404,64 @@ def test_largest_fall_after_95_and_the_figures(tmp_path: Path) -> None:
     plot(cells, str(tmp_path / "c"))
     for name in ("c-reliability.png", "c-share.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_model_changes_reach_every_bayes_team_and_are_undone() -> None:
+    """``--model`` of ``benchmarks.crowds results``: the changed fields in every model that
+    ``SensorModel.from_config`` builds within the block, the model as it was after it."""
+    from benchmarks.crowds import ModelChanges, parse_changes
+
+    config = scenario(30, 30, 4.0)
+    before = SensorModel.from_config(config)
+    changes = parse_changes(["crowd_push_tail=1", "contact_break*=0.5", "crowd_jam=4"])
+    with ModelChanges(changes):
+        inside = SensorModel.from_config(config)
+        env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
+        team = baselines.make_team("bayes", env)
+        assert team.localizer.identifier.model == inside  # type: ignore[attr-defined]
+    assert inside.crowd_push_tail == 1.0
+    assert inside.crowd_jam == 4
+    assert inside.contact_break == pytest.approx(0.5 * before.contact_break)
+    assert dataclasses.replace(inside, crowd_push_tail=0.05, crowd_jam=JAM) == dataclasses.replace(
+        before, contact_break=inside.contact_break
+    )
+    assert SensorModel.from_config(config) == before
+    for bad in ("pixel_noise=2", "crowd_jam=many"):
+        with pytest.raises(ValueError, match="--model"):
+            parse_changes([bad])
+
+
+def test_cells_count_the_wrong_decisions_a_calibrated_identifier_expects() -> None:
+    """``expected_wrong`` is the sum of ``1 - belief`` over the confident decisions only."""
+    from benchmarks.crowds import play, score_cell
+
+    env = anonloc_env.AnonLocEnv(scenario(10, 6, 2.0), reward_fn=anonloc_env.EnergyCost())
+    played = [play(env, "distinct", seed, pictures=6) for seed in (3, 4)]
+    cell = score_cell(played)
+    tops = np.concatenate([top for p in played for top in p.top])
+    sure = tops[tops >= THRESHOLD]
+    assert cell["decided"] == len(sure) > 0
+    assert cell["expected_wrong"] == pytest.approx(float(np.sum(1.0 - sure)))
+    assert 0.0 < cell["expected_wrong"] <= 0.01 * cell["decided"]
+
+
+def test_push_fit_recovers_the_share_of_drawn_pushes() -> None:
+    """Unseen motions drawn with 0.05 of the push covariance plus the pictures' noise: the fit
+    finds that share within 10 %, and fits them better than the model's wider pushes."""
+    from benchmarks.crowd_pressed import push_fit
+
+    rng = np.random.default_rng(5)
+    model = SensorModel.from_config(scenario(30, 30, 4.0))
+    k, noise = 4000, 2e-4
+    side = rng.uniform(0.05, 0.4, k)
+    angle = rng.uniform(-math.pi, math.pi, k)
+    axis = np.column_stack([np.cos(angle), np.sin(angle)])
+    cov = side[:, None, None] ** 2 * (
+        axis[:, :, None] * axis[:, None, :] / 3.0 + 0.05 * np.eye(2)[None]
+    )
+    e = np.stack([rng.multivariate_normal(np.zeros(2), 0.05 * c + noise * np.eye(2)) for c in cov])
+    fitted = push_fit({"pressed": (e, cov), "bump": (e, cov)}, model, noise)
+    for name in ("pressed", "bump"):
+        assert fitted[name]["intervals"] == k
+        assert fitted[name]["fitted share"] == pytest.approx(0.05, rel=0.1)
+        assert fitted[name]["loglik fitted"] > fitted[name]["loglik model"]

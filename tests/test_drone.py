@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
 import numpy as np
 import pytest
+from test_identify_paths import _Recorder
 
 import anonloc_env
 from anonloc_env.camera import Camera
 from anonloc_env.camera_motion import CameraMotion, pose_homography, set_point
+from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.camera_pose import Anchors, Registration, apply, registration_prior
 from anonloc_env.identify.out_of_view import claimed_elsewhere
 from anonloc_env.identify.tracks import Tracks
@@ -371,6 +374,43 @@ def test_a_row_another_robot_is_sure_of_is_taken_from_the_rest() -> None:
     np.testing.assert_allclose(np.exp(out.logw), [0.995, 0.3 / total, 0.003 / total])
     np.testing.assert_allclose(np.exp(unanchored_out), [0.005, 0.1 / total])
     assert np.all(uniform_out == -np.inf)
+
+
+def _belief_of_robot_0(pooled: bool, others_reversed: bool) -> list[np.ndarray]:
+    """Robot 0's belief and miss after each of 12 pictures of a seeded ``drone-hover`` episode
+    (8 robots driving on random commands, no headings), the other robots' motions as they were
+    or turned back (each one's displacement and turn reversed)."""
+    recorder = _Recorder()
+    camera = {"orientation": False, "pixel_noise": 1.0, "pooled_motion": pooled}
+    env = anonloc_env.parallel_env(
+        "drone-hover", n_robots=8, arena_size=(3.0, 3.0), camera=camera, reward_fn=recorder
+    )
+    env.reset(seed=4)
+    rng = np.random.default_rng(4)
+    while len(recorder.log) < 12:
+        env.step({a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents})
+    identifier = Identifier(SensorModel.from_config(env.config), 8)
+    out = []
+    for rows, interval in recorder.log[:12]:
+        if interval is not None and others_reversed:
+            d, dphi = interval.d.copy(), interval.dphi.copy()
+            d[1:], dphi[1:] = -d[1:], -dphi[1:]
+            interval = dataclasses.replace(interval, d=d, dphi=dphi)
+        identifier.update(rows, interval)
+        out.append(np.append(identifier.belief()[0], identifier.missing()[0]))
+    return out
+
+
+@pytest.mark.parametrize("pooled", [False, True])
+def test_a_robots_belief_reads_the_others_motions_only_when_they_are_pooled(pooled: bool) -> None:
+    """Under a moving camera without landmarks robot 0's belief depends on the pictures and its
+    own motion only (the others' motions reversed change it by not a bit), unless
+    ``camera.pooled_motion`` lets the robots the identifier is sure of anchor the registration
+    (a communication): then it reads them."""
+    own = _belief_of_robot_0(pooled, others_reversed=False)
+    reversed_ = _belief_of_robot_0(pooled, others_reversed=True)
+    same = all(np.array_equal(a, b) for a, b in zip(own, reversed_, strict=True))
+    assert same != pooled
 
 
 def test_landmark_path_recovers_a_known_pose_from_a_rendered_image() -> None:

@@ -33,7 +33,8 @@ class Identifier:
 
     Call :meth:`update` with every picture (and each robot's motion since the previous one), then
     read :meth:`belief`. The robots share nothing but the pictures: robot i's belief depends only
-    on the pictures and ``interval`` row i.
+    on the pictures and ``interval`` row i (unless ``model.pooled_motion``: a moving camera
+    registered by the robots the identifier is sure of, a communication the option states).
 
     Args:
         model: the sensor model (see :class:`SensorModel`).
@@ -111,9 +112,9 @@ class Identifier:
             interval: each robot's motion since the previous picture; ignored for the first one.
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
-        if self.registration is not None:  # anchored by the robots it is sure of
+        if self.registration is not None:  # anchored by the robots it is sure of, if pooled
             sure = None
-            if interval is not None and self.rows is not None:
+            if self.model.pooled_motion and interval is not None and self.rows is not None:
                 noise = self.registration.prior.pixel_noise
                 sure = sure_moves(self.tracks, interval, self.model, noise, self.scoring.theta_var)
             rows = self.registration.register(rows, sure)
@@ -149,7 +150,7 @@ class Identifier:
         self.row_bias = bias
         self.pictures += 1
         self._normalise_and_prune(parts)
-        if view is not None:  # a moving camera: rows another robot is sure of (out_of_view)
+        if view is not None and self.model.pooled_motion:  # rows another robot is sure of
             self.tracks, self.uniform, self.unanchored = claimed_elsewhere(
                 self.tracks, self.uniform, self.unanchored, self._log_rows()
             )

@@ -93,6 +93,11 @@ class SensorModel:
         view: a moving camera's view (:mod:`anonloc_env.identify.footprint`): each picture's
             footprint then enters the count law, and robots predicted out of view are expected
             to be missed. ``None``: a fixed camera, every robot in view.
+        pooled_motion: with ``registration``, the robots share their motions
+            (``camera.pooled_motion``): the robots the identifier is sure of anchor the registration
+            (``anchors``) and a row another robot is sure of is taken from the rest
+            (``out_of_view.claimed_elsewhere``). False: each robot's belief depends on the
+            pictures and its own motion only.
     """
 
     scale: float | None
@@ -117,6 +122,7 @@ class SensorModel:
     contact_break: float = 0.0
     registration: RegistrationPrior | None = None
     view: View | None = None
+    pooled_motion: bool = False
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -207,6 +213,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
         registration=registration,
         view=None if registration is None else camera_view(config, registration.absolute[2]),
+        pooled_motion=registration is not None and config.camera.pooled_motion,
     )
 
 
