@@ -56,7 +56,9 @@ from baselines.steps import BeliefView, Step
 
 def unicycle(v: np.ndarray, w: np.ndarray, duration: float) -> np.ndarray:
     """Displacement ``(..., 2)`` in the robot's frame of ``(v, w)`` held for ``duration`` s."""
-    v, w = np.broadcast_arrays(np.asarray(v, np.float64), np.asarray(w, np.float64))
+    v, w = np.asarray(v, np.float64), np.asarray(w, np.float64)
+    if v.shape != w.shape:  # (broadcast_arrays costs more than the rest for equal shapes)
+        v, w = np.broadcast_arrays(v, w)
     turn = w * duration
     small = np.abs(turn) < 1e-6
     safe = np.where(small, 1.0, w)
@@ -460,6 +462,7 @@ class GreedyIdentification(Excitation):
         self.base = (np.zeros(0), np.zeros(0))
         self.budget = 1.0
         self.following = False
+        self._others: tuple[GreedySettings, bool, np.ndarray] | None = None
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
@@ -575,12 +578,21 @@ class GreedyIdentification(Excitation):
         total_v = bv + self.budget * cand[..., 0]
         total_w = bw + self.budget * cand[..., 1]
         own = unicycle(total_v, total_w, geo.duration)
-        other = st.other_commands(deviation)[None]
+        other = self._other_commands(deviation)[None]
         others = unicycle(
             bv + self.budget * other[..., 0], bw + self.budget * other[..., 1], geo.duration
         )
         spent = wheel_travel(total_v, total_w, cost, geo.duration)
         return ScoringJob(cand, hyp, geo, own, others, spent, st.ring_samples)
+
+    def _other_commands(self, deviation: bool) -> np.ndarray:
+        """``self.settings.other_commands(deviation)``, built once per settings (read-only)."""
+        cached = self._others
+        if cached is None or cached[0] is not self.settings or cached[1] != deviation:
+            commands = np.array(self.settings.other_commands(deviation))  # our own copy
+            commands.flags.writeable = False
+            cached = self._others = (self.settings, deviation, commands)
+        return cached[2]
 
     def drive(self, cset: CandidateSet, pick: np.ndarray) -> None:
         """Hold candidate ``pick`` ``(R,)`` of each robot until the next picture."""

@@ -89,6 +89,12 @@ def test_unicycle_displacement() -> None:
     d = unicycle(np.array([1.0, 1.0]), np.array([0.0, math.pi / 2]), 1.0)
     np.testing.assert_allclose(d[0], [1.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(d[1], [2 / math.pi, 2 / math.pi], atol=1e-12)
+    w = np.array([[0.0, 1e-8, 0.7], [-2.0, 0.3, 1.0]])
+    v = np.array([0.2, -0.1, 0.3])
+    together = unicycle(v, w, 0.8)  # shapes broadcast: each pair as on its own
+    assert together.shape == (2, 3, 2)
+    for i, j in np.ndindex(w.shape):
+        np.testing.assert_array_equal(together[i, j], unicycle(v[j], w[i, j], 0.8))
 
 
 def _two_hypotheses(known: bool) -> Hypotheses:
@@ -258,3 +264,18 @@ def test_hypotheses_of_weight_zero_change_nothing() -> None:
     np.testing.assert_array_equal(
         expected_entropy(moved, own, others, GEO), expected_entropy(hyp, own, others, GEO)
     )
+
+
+def test_the_others_commands_follow_the_settings_and_deviation() -> None:
+    """The others' commands are built once per settings and duty, read-only, and follow a
+    change of settings (they equal ``GreedySettings.other_commands`` each time)."""
+    excitation = GreedyIdentification(GreedySettings())
+    for deviation in (False, True, False):
+        got = excitation._other_commands(deviation)
+        np.testing.assert_array_equal(got, excitation.settings.other_commands(deviation))
+        assert not got.flags.writeable
+    assert excitation._other_commands(True) is excitation._other_commands(True)
+    own = np.array([[0.2, 0.5], [0.1, -0.5]])
+    excitation.settings = GreedySettings(others=own)
+    np.testing.assert_array_equal(excitation._other_commands(False), own)
+    assert own.flags.writeable  # the caller's array is not frozen

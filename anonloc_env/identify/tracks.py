@@ -65,6 +65,8 @@ class Tracks:
         count = len(slot)
 
         def field(value: np.ndarray | float) -> np.ndarray:
+            if type(value) is np.ndarray and value.ndim:  # most fields (np.ndim costs more)
+                return value
             return shared(float(value), count) if np.ndim(value) == 0 else np.asarray(value)
 
         return cls(
