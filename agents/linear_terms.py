@@ -83,7 +83,7 @@ CROWD_TERMS = (
     + _terms(TERM_BASES, (CROWD_GATE,))
     + _terms((CROWD_BASE,), (*TERM_GATES, CROWD_GATE))
 )
-#: The terms a search with ``size`` adds: every base times the ``rows`` gate.
+#: The terms a search with ``size`` adds: every base times the ``rows_free`` gate.
 SIZE_TERMS = _terms(TERM_BASES, (SIZE_GATE,))
 #: Every term this anonloc can compute, by name.
 KNOWN_TERMS = {t.name: t for t in CROWD_TERMS + SIZE_TERMS}

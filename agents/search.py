@@ -57,6 +57,7 @@ from agents.evaluation import validate_against_uniform
 from agents.linear_agent import LINEAR_SPEC, linear_weights
 from agents.linear_chooser import LinearChooser, chooser
 from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
+from agents.policy import BUNDLED_NAME
 from agents.run_folder import write_text_atomic
 from agents.search_costs import Costing, costs, pool, pooled_player
 from agents.spec import AgentSpec
@@ -149,8 +150,10 @@ class SearchConfig:
             check_number("energy_cap", self.energy_cap, 0.0, 10.0, low_open=True)
         if self.against not in ("ablation", "uniform"):
             raise ValueError(f"against must be 'ablation' or 'uniform', got {self.against!r}")
-        if self.start is not None and self.start != "bundled" and not Path(self.start).exists():
-            raise ValueError(f"start must be a saved linear agent or 'bundled': no {self.start}")
+        if self.start not in (None, BUNDLED_NAME) and not Path(str(self.start)).exists():
+            raise ValueError(
+                f"start must be a saved linear agent or {BUNDLED_NAME!r}: no {self.start}"
+            )
         if self.crowd_only and not self.crowd:
             raise ValueError("crowd_only needs crowd (the crowd features and their terms)")
 
