@@ -13,8 +13,8 @@ import pytest
 import anonloc_env
 import baselines
 from anonloc_env import compiled
-from anonloc_env.identify import children as children_module
 from anonloc_env.identify import Identifier, SensorModel, first_step, likelihood
+from anonloc_env.identify import children as children_module
 from anonloc_env.identify.model import ring_loglik, ring_loglik_bound
 from anonloc_env.identify.tracks import FIELDS
 from anonloc_env.rewards import EnergyCost
