@@ -343,6 +343,42 @@ def _project(
     return most
 
 
+@jit
+def substep(
+    read: np.ndarray,
+    state: np.ndarray,
+    turn: np.ndarray,
+    heading: np.ndarray,
+    spare: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    sizes: np.ndarray,
+    pairs: np.ndarray,
+    anchor: np.ndarray,
+    params: np.ndarray,
+    most: int,
+    travel: np.ndarray,
+    forward: np.ndarray,
+    turned: np.ndarray,
+    worst: np.ndarray,
+    fused: bool,
+) -> int:
+    """A sub-step of square robots after pymunk's, in one call: :func:`move` (the new headings
+    into ``spare``; ``sizes`` holds ``h``, half size, wall slack, width and height), the
+    position correction's first pass (:func:`separate` with its list check, at most ``most``
+    projections) and, when that pass finished the correction, :func:`record`
+    (the move against the start's ``heading``). Returns the pass's answer: 0 when the sub-step
+    is complete; else -1 (the list is stale) or the projections made, and the caller goes on
+    with the correction and then records, as the three calls one by one would."""
+    n = len(read)
+    h, half, slack, width, height = sizes[0], sizes[1], sizes[2], sizes[3], sizes[4]
+    move(read, state, n, h, turn, spare, low, high, half, slack, width, height, True)
+    done = separate(state, n, spare, pairs, anchor, low, high, params, most, fused, True)
+    if done == 0:
+        record(read, state, n, heading, travel, forward, turned, worst, fused)
+    return done
+
+
 def mode() -> bool | None:
     """None when the kernels are not used (no numba, ``ANONLOC_JIT=0``, or a numpy whose complex
     multiply neither form matches); else whether they fuse their complex products, as this

@@ -193,23 +193,6 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.capacity = int(capacity)
         """Rows of a picture in the observations (``D``): the detector's ``capacity``, else the
         config's."""
-        obs_space = observation_space(self.config, self.capacity)
-        action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        # One space object per agent, built once: seeding one agent's space leaves the others
-        # alone. They share one set of (read-only) bound arrays: memory stays linear in N.
-        self.observation_spaces = {
-            agent: obs_space if i == 0 else space_copy(obs_space)
-            for i, agent in enumerate(self.possible_agents)
-        }
-        self.action_spaces = {
-            agent: action_space if i == 0 else spaces.Box(-1.0, 1.0, (2,), np.float32)
-            for i, agent in enumerate(self.possible_agents)
-        }
-        width, height = self.config.arena_size
-        high = np.tile(np.array([width, height, np.pi], np.float32), (n, 1))
-        low = np.tile(np.array([0.0, 0.0, -np.pi], np.float32), (n, 1))
-        self.state_space = spaces.Box(low, high, (n, 3), np.float32)
-
         robot = self.config.robot
         self._command_scale = np.array([robot.v_max, robot.omega_max])
         self._all_false = dict.fromkeys(self.possible_agents, False)
@@ -225,6 +208,34 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         self.guesses: dict[str, int | None] = {}
         """Row each robot currently believes is itself; drawn by ``render`` if set (optional)."""
         self._renderer: Any = None
+
+    # The spaces are built when first asked for: building a Box formats its bounds (the state
+    # space's (N, 3) arrays through numpy's printer), about 2 ms per env at N = 30, which the
+    # learning path (agents.vec builds an env per redrawn episode) never reads.
+    @functools.cached_property
+    def observation_spaces(self) -> dict[str, spaces.Space[Any]]:
+        """One observation space per agent, built once: seeding one agent's space leaves the
+        others alone. They share one set of (read-only) bound arrays: memory stays linear in N."""
+        obs_space = observation_space(self.config, self.capacity)
+        return {
+            agent: obs_space if i == 0 else space_copy(obs_space)
+            for i, agent in enumerate(self.possible_agents)
+        }
+
+    @functools.cached_property
+    def action_spaces(self) -> dict[str, spaces.Space[Any]]:
+        """One action space per agent, ``Box(-1, 1, (2,), float32)``, each with its own
+        generator."""
+        return {agent: spaces.Box(-1.0, 1.0, (2,), np.float32) for agent in self.possible_agents}
+
+    @functools.cached_property
+    def state_space(self) -> spaces.Box:
+        """The space of :meth:`state`: ``(N, 3)`` float32 ``(x, y, theta)`` within the arena."""
+        n = self.config.n_robots
+        width, height = self.config.arena_size
+        high = np.tile(np.array([width, height, np.pi], np.float32), (n, 1))
+        low = np.tile(np.array([0.0, 0.0, -np.pi], np.float32), (n, 1))
+        return spaces.Box(low, high, (n, 3), np.float32)
 
     def _new_odometry(self) -> Odometry:
         robot = self.config.robot

@@ -63,8 +63,21 @@ class Interval:
         about ``path^2 noise^2 sum dth^2 / 3``; split evenly over the two components. Contacts are
         in :meth:`push_covariance`.
         """
+        # Computed once per noise (the identifier asks about eight times a picture) and kept
+        # beside the fields, not as one (copies made field by field recompute them): read-only
+        # arrays, shared by the callers.
+        known: dict[float, tuple[np.ndarray, np.ndarray]] = self.__dict__.setdefault(
+            "_variances", {}
+        )
+        cached = known.get(noise)
+        if cached is not None:
+            return cached
         var_dphi = noise**2 * self.sum_dth2
         var_d = noise**2 * (self.sum_ds2 + self.path**2 * self.sum_dth2 / 3.0) / 2.0
+        if isinstance(var_d, np.ndarray) and isinstance(var_dphi, np.ndarray):
+            var_d.flags.writeable = False
+            var_dphi.flags.writeable = False
+            known[noise] = (var_d, var_dphi)
         return var_d, var_dphi
 
     def push_covariance(self) -> np.ndarray:

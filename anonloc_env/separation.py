@@ -111,18 +111,37 @@ class Separator:
             self.rebuilds += 1
         return self._pairs
 
+    def first_pass(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """What :func:`anonloc_env.compiled.substep` needs to make the compiled correction's
+        first pass itself (the neighbour list, where it was built, the bounds): None for
+        circles, or when the list must be built first (go through :meth:`separate_compiled`)."""
+        if not self.square or self._anchor is None:
+            return None
+        return self._pairs, self._anchor_xy, self._params
+
     def separate_compiled(
-        self, state: np.ndarray, heading: np.ndarray, low: np.ndarray, high: np.ndarray, fused: bool
+        self,
+        state: np.ndarray,
+        heading: np.ndarray,
+        low: np.ndarray,
+        high: np.ndarray,
+        fused: bool,
+        first: int = 0,
     ) -> None:
         """:meth:`separate` through :func:`anonloc_env.compiled.separate` (same floats) for
         the positions in the first two columns of ``state`` ``(N + 1, 7)``, clamped to
-        ``low``/``high`` as ``World._clamp_to_arena`` does; circles go through :meth:`separate`."""
+        ``low``/``high`` as ``World._clamp_to_arena`` does; circles go through :meth:`separate`.
+        ``first``: the answer of a first pass already made (``compiled.substep``'s, not 0),
+        which this call goes on from."""
         if not self.square:
             xy = state[: self.n, :2]
             clamp = partial(_clamp, xy, low, high)
             self.separate(xy, heading, clamp)
             return
         left, check = MAX_PROJECTIONS, True
+        if first < 0:  # the first pass found the list stale
+            self._anchor = None
+        left -= max(first, 0)
         while left > 0:
             if self._anchor is None:
                 self.neighbours(state[: self.n, :2].view(np.complex128)[:, 0])

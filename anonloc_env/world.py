@@ -54,7 +54,7 @@ import pymunk.batch as pmb
 from anonloc_env import compiled
 from anonloc_env.config import EnvConfig, placement_spacing, substeps_needed
 from anonloc_env.overlap import robot_overlaps, wall_overlaps
-from anonloc_env.separation import SOLID, Separator
+from anonloc_env.separation import MAX_PROJECTIONS, SOLID, Separator
 
 #: A robot whose sub-step displacement differs from its command by more than this fraction of
 #: its size was pushed or blocked by a contact: its bumper fires.
@@ -214,6 +214,10 @@ class World:
         self._square = robot.shape == "square"
         self._half = np.float64(robot.size / 2.0)
         self._wall_slack = np.float64(_WALL_TOLERANCE * robot.size)
+        # compiled.substep's sizes: the sub-step (s), half size, wall slack, width, height (m).
+        self._sizes = np.array(
+            [self.substep_dt, self._half, self._wall_slack, *config.arena_size], dtype=np.float64
+        )
         self.poses = np.asarray(poses, dtype=np.float64).copy()
         """``(N, 3)`` current poses ``(x, y, theta)``; theta is not wrapped."""
         self._state[: self.n, :3] = self.poses
@@ -300,26 +304,38 @@ class World:
     def _step_compiled(
         self, speed: np.ndarray, travel: np.ndarray, turn: np.ndarray, fused: bool
     ) -> WheelTravel:
-        """:meth:`step` with each sub-step's numpy work in three compiled calls (same floats)."""
+        """:meth:`step` with each sub-step's numpy work compiled (same floats): one call
+        (``compiled.substep``) while the neighbour list of square robots stands, else three."""
         h, n, kernels = self.substep_dt, self.n, compiled
         forward = np.empty((self.substeps, n))
         turned = np.empty((self.substeps, n))
         worst = np.zeros((n, 2))
         width, height = self._width, self._height
         ours, low, high, force = self._state, self._low, self._high, self._force
-        batch, separate = self.batch, self.separator.separate_compiled
+        batch, separator = self.batch, self.separator
         for k in range(self.substeps):
             heading, spare = self._heading, self._spare_heading
             np.multiply(speed, heading, out=force)
             batch.write()
             batch.step(h)
             state = batch.read_state()
-            kernels.move(
-                state, ours, n, h, turn, spare, low, high,
-                self._half, self._wall_slack, width, height, self._square,
-            )  # fmt: skip
             self._heading, self._spare_heading = spare, heading
-            separate(ours, spare, low, high, fused)
+            listed = separator.first_pass()
+            if listed is not None:
+                pairs, anchor, params = listed
+                done = kernels.substep(
+                    state, ours, turn, heading, spare, low, high, self._sizes, pairs, anchor,
+                    params, MAX_PROJECTIONS, travel, forward[k], turned[k], worst, fused,
+                )  # fmt: skip
+                if done == 0:
+                    continue
+                separator.separate_compiled(ours, spare, low, high, fused, first=done)
+            else:
+                kernels.move(
+                    state, ours, n, h, turn, spare, low, high,
+                    self._half, self._wall_slack, width, height, self._square,
+                )  # fmt: skip
+                separator.separate_compiled(ours, spare, low, high, fused)
             kernels.record(state, ours, n, heading, travel, forward[k], turned[k], worst, fused)
         self.poses = self._pose_rows.copy()
         return WheelTravel(forward, turned, self._bumped(worst))

@@ -9,9 +9,10 @@ played (the first ``n`` of the same evaluation seeds):
   most 1) at no more than 0.8x the energy; *within the interval* where the pictures' point
   estimate is above 1 but its interval reaches 1, at no more than 0.8x the energy; else *missed*;
 * agent / ``uniform-rest`` (the ablation at the same rest), where it was run;
-* the better of ``distinct`` and ``greedy`` (the one with fewer pictures on those seeds), and
-  **target 2**: *met* where the agent's mean pictures and energy over the same seeds are both no
-  more than its own;
+* the better of ``distinct`` and ``greedy`` (the one with fewer pictures on those seeds), the
+  agent's paired ratios to it (pictures, energy, 95 % intervals), and **target 2**: *met* where
+  the agent's mean pictures and energy over the same seeds are both no more than its own;
+  *within the interval* where a ratio above 1 has an interval that reaches 1; else *missed*;
 * agent / ``code`` (the centralized reference), pictures.
 
 Usage::
@@ -53,16 +54,27 @@ def target_one(pictures: Interval95, energy: Interval95) -> str:
 
 
 def target_two(agent: Row, rivals: Sequence[Row]) -> tuple[str, str]:
-    """``(the better rival's name and its pictures / energy, the verdict)`` of target 2, on the
-    seeds the agent and that rival both played."""
+    """``(the better rival's name, its pictures / energy and the agent's paired ratios to it,
+    the verdict)`` of target 2, on the seeds the agent and that rival both played: *met* where
+    the agent's mean pictures and energy are both no more than the rival's; *within the
+    interval* where a ratio above 1 has a 95 % interval that reaches 1; else *missed*."""
     n = min(len(r["firsts"]) for r in rivals)
     better = min(rivals, key=lambda r: float(np.mean(r["firsts"][:n])))
     m = min(n, len(agent["firsts"]))
-    pictures, energy = (float(np.mean(better[k][:m])) for k in ("firsts", "energies"))
-    ours = (float(np.mean(agent["firsts"][:m])), float(np.mean(agent["energies"][:m])))
-    verdict = "met" if ours[0] <= pictures and ours[1] <= energy else "missed"
-    name = better["excitation"]
-    text = f"`{name}` {pictures:.2f} / {energy:.2f} (agent {ours[0]:.2f} / {ours[1]:.2f})"
+    mine = {k: np.asarray(agent[k][:m], np.float64) for k in ("firsts", "energies")}
+    theirs = {k: np.asarray(better[k][:m], np.float64) for k in ("firsts", "energies")}
+    ratios = [paired_ratio(mine[k], theirs[k]) for k in ("firsts", "energies")]
+    if all(r.mean <= 1.0 for r in ratios):
+        verdict = "met"
+    elif all(r.mean <= 1.0 or r.low <= 1.0 for r in ratios):
+        verdict = "within the interval"
+    else:
+        verdict = "missed"
+    text = (
+        f"`{better['excitation']}` {theirs['firsts'].mean():.2f} / "
+        f"{theirs['energies'].mean():.2f} (agent {mine['firsts'].mean():.2f} / "
+        f"{mine['energies'].mean():.2f}; ratios {ratios[0]}, {ratios[1]})"
+    )
     return text, verdict
 
 

@@ -35,10 +35,23 @@ def test_target_two_compares_with_the_rival_of_fewer_pictures_on_the_shared_seed
     agent = row("agent", [3, 3, 9, 9], [1.0, 1.0, 5.0, 5.0])
     greedy, distinct = row("greedy", [4, 4], [0.9, 0.9]), row("distinct", [5, 5], [2.0, 2.0])
     text, verdict = target_two(agent, [distinct, greedy])
-    assert text.startswith("`greedy` 4.00 / 0.90 (agent 3.00 / 1.00)")
-    assert verdict == "missed"  # fewer pictures but more energy than greedy
+    assert text.startswith("`greedy` 4.00 / 0.90 (agent 3.00 / 1.00; ratios 0.75 [0.75, 0.75]")
+    assert verdict == "missed"  # fewer pictures but more energy than greedy, on every seed
     _, verdict = target_two(row("agent", [3, 3], [0.5, 0.5]), [distinct, greedy])
     assert verdict == "met"
+
+
+def test_target_two_is_within_the_interval_where_a_ratio_above_one_reaches_one() -> None:
+    """Paired on four seeds: the agent's pictures are 1.1x greedy's on the mean, but below on two
+    seeds, so the bootstrap interval of the ratio reaches 1; its energy is below on every seed."""
+    greedy = row("greedy", [4, 4, 4, 4], [1.0, 1.0, 1.0, 1.0])
+    distinct = row("distinct", [9, 9, 9, 9], [1.0, 1.0, 1.0, 1.0])
+    agent = row("agent", [3, 3, 6, 5.6], [0.9, 0.9, 0.9, 0.9])
+    text, verdict = target_two(agent, [distinct, greedy])
+    assert "ratios 1.1 [" in text
+    assert verdict == "within the interval"
+    agent = row("agent", [4.4, 4.4, 4.4, 4.4], [0.9, 0.9, 0.9, 0.9])
+    assert target_two(agent, [distinct, greedy])[1] == "missed"  # above 1 on every seed
 
 
 def test_the_table_has_one_line_per_condition_with_agent_and_uniform() -> None:
