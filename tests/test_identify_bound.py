@@ -13,8 +13,8 @@ import pytest
 import anonloc_env
 import baselines
 from anonloc_env import compiled
+from anonloc_env.identify import Identifier, SensorModel, first_step, likelihood
 from anonloc_env.identify import children as children_module
-from anonloc_env.identify import first_step, likelihood
 from anonloc_env.identify.model import ring_loglik, ring_loglik_bound
 from anonloc_env.identify.tracks import FIELDS
 from anonloc_env.rewards import EnergyCost
@@ -119,3 +119,19 @@ def test_compiled_first_step_gives_the_general_paths_tracks(
     for a, b in zip(fast, general, strict=True):
         for name in a:
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+def test_building_an_identifier_loads_the_first_step_passes() -> None:
+    """An identifier built with the kernels on has compiled (or loaded from numba's cache) the
+    first step's passes for the types ``ring_leg`` gives them: a drone episode's pictures then
+    add no signature, so nothing compiles at its first picture without headings."""
+    pytest.importorskip("numba")
+    if compiled.mode() is None:
+        pytest.skip("kernels off (ANONLOC_JIT=0 or an unknown numpy)")
+    config = anonloc_env.make_config("drone-hover", n_robots=9, camera={"orientation": False})
+    Identifier(SensorModel.from_config(config), config.n_robots)
+    names = ("_gated", "_ringed", "_i0_terms", "_pruned")
+    loaded = {name: list(getattr(first_step, name).signatures) for name in names}
+    assert all(len(signatures) == 1 for signatures in loaded.values())
+    _snapshots("drone-hover", 16, 3)
+    assert {name: list(getattr(first_step, name).signatures) for name in names} == loaded

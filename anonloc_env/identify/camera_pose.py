@@ -15,19 +15,25 @@ pictures every row moves by the camera's change plus its robot's own displacemen
 unknown to the others but bounded and of zero mean over many robots. So, at each picture:
 
 1. each row of the previous (registered) picture is predicted on: a robot that moved keeps its
-   heading (the direction of its previous displacement, less the displacement the whole team
-   shared, which holds the previous registration's error) and moves the team's typical step
-   (the median previous displacement); one that did not, or whose motion is unknown, may move
-   that step in any direction;
+   axis (the line of its previous displacement, less the displacement the whole team shared,
+   which holds the previous registration's error): a robot turns little in a picture's
+   interval, but it may drive on or back off (a bump's reverse drive), so it is either ahead
+   on that line or behind, by how far the team's robots went on and went back lately, with
+   the odds of each as lately seen (under ``distinct`` motion at 1 robot per m^2, about half
+   go back), and off the line by little; one that did not move, or whose motion is unknown,
+   may move the team's typical step (the median previous displacement) in any direction;
 2. the rows are mapped through the previous picture's transform, shifted by the offset most
    pairs of rows agree on (a mean shift over the pairs within reach, so that a camera change as
    large as the robots' spacing is still matched), and matched to the predicted rows, mutual
    nearest neighbours within the reach of a robot plus the camera's change;
 3. the transform is the maximum a posteriori fit of the matched pairs (weighted least squares,
-   linear in ``(a, b, tx, ty)``), with a Gaussian prior on its change since the previous picture
-   and on its distance from the set point, both from the hover's processes; the pairs'
-   spreads are set to their own residuals (a robust scale, apart for the robots that kept a
-   heading and the others), and a pair whose residual says it is a wrong match, a false positive
+   linear in ``(a, b, tx, ty)``, each pair's two equations along its robot's axis and across
+   it), with a Gaussian prior on its change since the previous picture and on its distance
+   from the set point, both from the hover's processes; each pair is ahead or behind as the
+   fit says (both weighed, the spread along the axis widened by that doubt); the pairs'
+   spreads are set to their own residuals (robust scales, across and along the axes for the
+   robots that kept one, and for the others), and a pair whose residual says it is a wrong
+   match, a false positive
    or a robot crossing the edge of the view is down-weighted (Cauchy); matched again through
    the fit and refitted until the matches hold (a turn or a zoom moves the rows far from the
    centre by more than the shift that the first matches come from).
@@ -35,9 +41,10 @@ unknown to the others but bounded and of zero mean over many robots. So, at each
 Its error is what the robots' unknown displacements leave: the fit's posterior spread, at each
 picture, from its own residuals, widened by the measured :data:`ERROR_FACTOR`
 (``Registration.error``), plus what the guess of the robots' motion may have put in the fit
-unseen by its residuals: the picture is registered again under the guess that no robot kept its
-heading, and the two transforms' mean square disagreement over the rows, beyond what the second
-fit's larger error explains, is added to its variance. The identifier adds it to that
+unseen by its residuals: the picture is registered again under the guess that the robots keep
+their axes but that nothing tells how far along them, either way, and the two transforms' mean
+square disagreement over the rows, beyond what the second fit's larger error explains, is
+added to its variance. The identifier adds it to that
 picture's pixel noise (``Registration.pixel_var``), so that a picture registered badly (few
 robots in view, scattered displacements) weighs less; the sensor model's nominal figure
 (:func:`registered_pixel_noise`, what the agent's candidate predictions and the corrected
@@ -59,13 +66,26 @@ from anonloc_env.identify.arrays import is_shared, shared
 from anonloc_env.landmarks import landmark_error
 from anonloc_env.neighbours import pairs_within
 
+#: Median absolute value of a standard Gaussian number.
+NORMAL_MAD = 0.6745
 #: Cauchy scale of the pair weights, in standard deviations of a pair's residual.
 CAUCHY_SIGMAS = 2.5
-#: A displacement shorter than this share of the team's typical one gives no heading.
+#: A displacement shorter than this share of the team's typical one gives no axis.
 HEADING_MIN = 0.25
-#: Spread of a robot's guess that kept its heading, per component, as a share of the typical
-#: displacement, before the fit rescales it to its residuals.
+#: Nor one shorter than this many times the error the registration and the detector put in it.
+AXIS_SIGMAS = 1.0
+#: Spread of a robot's guess that kept its axis, across it and along it, as shares of the
+#: typical displacement, before the fit rescales them to its residuals.
 DIRECTED_SHARE = 0.35
+ALONG_SHARE = 0.55
+#: How far along its axis a robot's guess is, either way, as a share of the typical
+#: displacement.
+MODE_SHARE = 1.05
+#: The spread along its axis of a robot's guess that says only that it kept to it, as a
+#: share of the typical displacement.
+LINE_SHARE = 1.3
+#: The least share of the robots with an axis taken to go on along it, or back.
+WAY_SHARE_MIN = 0.02
 #: The fit's posterior spread understates the registration's true error by this factor (measured
 #: against the camera's true change, 25 robots driving under ``drone-hover``, five seeds: 1.44
 #: to 1.76): it takes the robots' displacements as independent, which walls and the view's
@@ -96,6 +116,50 @@ class Anchors(NamedTuple):
     row: np.ndarray
     target: np.ndarray
     sigma: np.ndarray
+
+
+class Guess(NamedTuple):
+    """Where each previous row's robot should be now: ``ahead`` of ``target`` (``(K, 2)``, the
+    previous picture's registered frame) along ``axis`` (``(K, 2)`` unit vectors), or
+    ``behind`` it, the second ``back_cost`` less likely (its squared Mahalanobis length's
+    extra, ``2 log`` of the odds; ``ahead``, ``behind`` and ``back_cost`` 0 where nothing gives
+    an axis), and how far off that may be: ``sigma`` across the axis and ``along`` it (image
+    units, per component; both ``sigma`` where nothing gives an axis); ``directed``: the
+    robots whose last displacement gave the axis; ``sure``: the anchored rows
+    (``camera.pooled_motion``)."""
+
+    target: np.ndarray
+    sigma: np.ndarray
+    directed: np.ndarray
+    sure: np.ndarray
+    axis: np.ndarray
+    along: np.ndarray
+    ahead: np.ndarray
+    behind: np.ndarray
+    back_cost: np.ndarray
+
+    def sub(self, j: np.ndarray) -> Guess:
+        """The guesses ``j``."""
+        return Guess(*(field[j] for field in self))
+
+
+def _isotropic(target: np.ndarray, sigma: np.ndarray) -> Guess:
+    """A guess of spread ``sigma`` in every direction, nothing directed or anchored."""
+    count = len(target)
+    axis = np.zeros((count, 2))
+    axis[:, 0] = 1.0
+    zero = np.zeros(count)
+    return Guess(
+        target,
+        sigma,
+        _none(count),
+        _none(count),
+        axis,
+        sigma.copy(),
+        zero,
+        zero.copy(),
+        zero.copy(),
+    )
 
 
 @dataclass(frozen=True)
@@ -252,7 +316,10 @@ class Registration:
         self._motion: np.ndarray | None = None  # each previous row's last displacement (or nan)
         self._step: float | None = None  # the team's typical displacement (image units)
         # Running robust scales of the directed pairs and of the others (None: none yet).
-        self._scales: list[float | None] = [None, None]
+        self._scales: list[float | None] = [None, None, None]
+        # How far the robots that kept an axis went on along it and back, and the share that
+        # went on (None: not learnt yet).
+        self._onward: tuple[float, float, float] | None = None
 
     @property
     def pixel_var(self) -> float:
@@ -283,12 +350,13 @@ class Registration:
             return registered
         guess = _anchored(self._predicted(), anchors, _residual_floor(self.prior))
         transform, pairs, self.error, scales = self._registered(rows, guess)
-        if guess[2].any():  # robots kept a heading: how far the guess that they did not moves it
-            still_guess = _anchored(self._still(), anchors, _residual_floor(self.prior))
-            still, _, still_error, _ = self._registered(rows, still_guess)
+        # Robots kept an axis: how far the guess that nothing tells how far along it moves it.
+        if guess.directed.any():
+            line_guess = _anchored(self._line(guess), anchors, _residual_floor(self.prior))
+            line, _, line_error, _ = self._registered(rows, line_guess)
             gap = apply(transform, self.prior.centre, rows[:, :2])
-            gap -= apply(still, self.prior.centre, rows[:, :2])
-            expected = max(still_error**2 - self.error**2, 0.0)
+            gap -= apply(line, self.prior.centre, rows[:, :2])
+            expected = max(line_error**2 - self.error**2, 0.0)
             self.error = math.sqrt(self.error**2 + max(float(np.mean(gap**2)) - expected, 0.0))
         self.transform = transform
         for k, scale in enumerate(scales):
@@ -301,7 +369,7 @@ class Registration:
         return registered
 
     def _registered(
-        self, rows: np.ndarray, guess: tuple[np.ndarray, ...]
+        self, rows: np.ndarray, guess: Guess
     ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], float, list[float | None]]:
         """The transform of ``rows`` to the previous rows' places ``guess`` (coarse shift, then
         matched and fitted until the matches hold, at most ``MATCH_ROUNDS`` times), its
@@ -310,7 +378,7 @@ class Registration:
         transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
         pairs = (np.zeros(0, np.int64), np.zeros(0, np.int64))
         error = 0.0
-        scales: list[float | None] = [None, None]
+        scales: list[float | None] = [None, None, None]
         for round_ in range(MATCH_ROUNDS):
             matched = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
             if round_ and _same(matched, pairs):  # the matches hold: the fit is done
@@ -319,41 +387,48 @@ class Registration:
             transform, error, scales = self._fit(rows[:, :2], pairs, guess, transform)
         return transform, pairs, error, scales
 
-    def _still(self) -> tuple[np.ndarray, ...]:
-        """The guess that no robot kept its heading: each previous row's robot moves the team's
-        typical step in any direction (what :meth:`_predicted` guesses for those without one)."""
-        assert self._previous is not None
+    def _line(self, guess: Guess) -> Guess:
+        """The guess that the robots with an axis keep to it but that nothing tells how far
+        along it, either way: each at its previous place, ``LINE_SHARE`` of the typical
+        step along the axis (``guess`` as :meth:`_predicted` gives it)."""
         assert self._step is not None
-        count = len(self._previous)
-        spread = max(self._step / math.sqrt(2.0), _residual_floor(self.prior))
-        return self._previous.copy(), np.full(count, spread), np.zeros(count, bool), _none(count)
+        out = Guess(*(a.copy() for a in guess))
+        out.ahead[:] = out.behind[:] = out.back_cost[:] = 0.0
+        out.along[guess.directed] = max(LINE_SHARE * self._step, _residual_floor(self.prior))
+        return out
 
-    def _predicted(self) -> tuple[np.ndarray, ...]:
-        """Where each previous row's robot should be now, the spread of that guess (image units,
-        per component, before the fit rescales it) and whether it kept a heading: a robot that
-        moved keeps its heading and moves the team's typical step; one that did not, or whose
-        motion is unknown, moves that step in any direction."""
+    def _predicted(self) -> Guess:
+        """Where each previous row's robot should be now and the spread of that guess (image
+        units, per component, before the fit rescales it): a robot that moved keeps its axis
+        (the line of its last displacement), along which it drives on or backs off (a bump's
+        reverse drive) by up to the team's typical step or so, and leaves it by little (its
+        turn); one that did not, or whose motion is unknown, moves that step in any
+        direction."""
         assert self._previous is not None
         assert self._motion is not None
         target = self._previous.copy()
         count = len(target)
         if self._step is None:  # the first interval: nothing known of the robots' motion
-            return target, np.full(count, self.prior.spread), np.zeros(count, bool), _none(count)
+            return _isotropic(target, np.full(count, self.prior.spread))
         floor = _residual_floor(self.prior)
-        sigma = np.full(count, max(self._step / math.sqrt(2.0), floor))
-        length = np.hypot(self._motion[:, 0], self._motion[:, 1])
-        directed = np.isfinite(length) & (length > 0.0)
-        directed &= length >= HEADING_MIN * self._step
+        guess = _isotropic(target, np.full(count, max(self._step / math.sqrt(2.0), floor)))
+        directed, length = self._axes(self._motion)
         if self._step > 0.0:
-            target[directed] += self._motion[directed] * (self._step / length[directed])[:, None]
-            sigma[directed] = max(DIRECTED_SHARE * self._step, floor)
-        return target, sigma, directed, _none(count)
+            guess.directed[:] = directed
+            guess.axis[directed] = self._motion[directed] / length[directed][:, None]
+            guess.sigma[directed] = max(DIRECTED_SHARE * self._step, floor)
+            guess.along[directed] = max(ALONG_SHARE * self._step, floor)
+            ahead, behind, share = self._onward_or_prior()
+            guess.ahead[directed], guess.behind[directed] = ahead, behind
+            guess.back_cost[directed] = 2.0 * math.log(share / (1.0 - share))
+        return guess
 
-    def _coarse_shift(self, moved: np.ndarray, guess: tuple[np.ndarray, ...]) -> np.ndarray:
+    def _coarse_shift(self, moved: np.ndarray, guess: Guess) -> np.ndarray:
         """``(2,)`` the shift most pairs of rows agree on: the mode of the pairs' offsets
         (mean shift, its kernel narrowed from twice the camera's expected change to a robot's
         spread), so that a camera change as large as the robots' spacing is still matched."""
-        target, sigma = guess[0], guess[1]
+        target = guess.target
+        sigma = np.sqrt(0.5 * (guess.sigma**2 + guess.along**2))
         i, j, _ = pairs_within(moved, target, self.prior.reach)
         shift = np.zeros(2)
         if len(i) == 0:
@@ -375,18 +450,17 @@ class Registration:
         length = float(np.hypot(*shift))
         return shift * (limit / length) if length > limit else shift
 
-    def _match(
-        self, moved: np.ndarray, guess: tuple[np.ndarray, ...]
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _match(self, moved: np.ndarray, guess: Guess) -> tuple[np.ndarray, np.ndarray]:
         """Mutual nearest pairs ``(row, previous row)`` between the rows ``moved`` (through the
-        current transform) and the previous rows' predicted places, within the reach."""
-        target, sigma = guess[0], guess[1]
-        i, j, dist = pairs_within(moved, target, self.prior.reach)
+        current transform) and the previous rows' predicted places, within the reach, nearest
+        in the guesses' spreads."""
+        i, j, _ = pairs_within(moved, guess.target, self.prior.reach)
         if len(i) == 0:
             return i, j
-        score = dist / sigma[j]
+        offset = _turned((guess.target[j] - moved[i]).reshape(-1), *guess.axis[j].T)
+        score = _mahalanobis(offset.reshape(-1, 2), guess.sub(j))
         best_i = _best(i, j, score, len(moved))
-        best_j = _best(j, i, score, len(target))
+        best_j = _best(j, i, score, len(guess.target))
         mutual = (best_i[i] == j) & (best_j[j] == i)
         return i[mutual], j[mutual]
 
@@ -394,48 +468,55 @@ class Registration:
         self,
         raw: np.ndarray,
         pairs: tuple[np.ndarray, np.ndarray],
-        guess: tuple[np.ndarray, ...],
+        guess: Guess,
         start: np.ndarray,
     ) -> tuple[np.ndarray, float, list[float | None]]:
         """The transform's maximum a posteriori fit to the pairs (Cauchy-reweighted, 3 rounds,
         the guesses' spreads rescaled to the residuals after the first), its error (from the
         spreads shrunk towards the running scales) and this picture's robust scales of the
-        directed pairs and the others (``None`` where too few)."""
+        directed pairs across and along their axes and of the others (``None`` where too
+        few)."""
         i, j = pairs
-        target, sigma0, directed, sure = guess
         cu, cv = self.prior.centre
         du, dv = raw[i, 0] - cu, raw[i, 1] - cv
-        # Rows of the design: u' - cu = a du - b dv + tx, v' - cv = b du + a dv + ty.
+        # Rows of the design: u' - cu = a du - b dv + tx, v' - cv = b du + a dv + ty, each
+        # pair's two turned onto its guess's axis and across it.
+        t0, t1 = guess.axis[j, 0], guess.axis[j, 1]
         design = np.zeros((2 * len(i), 4))
         design[0::2, 0], design[0::2, 1], design[0::2, 2] = du, -dv, 1.0
         design[1::2, 0], design[1::2, 1], design[1::2, 3] = dv, du, 1.0
         observed = np.empty(2 * len(i))
-        observed[0::2], observed[1::2] = target[j, 0] - cu, target[j, 1] - cv
+        observed[0::2], observed[1::2] = guess.target[j, 0] - cu, guess.target[j, 1] - cv
+        design, centre = _turned(design, t0, t1), _turned(observed, t0, t1)
         home = np.array([1.0, 0.0, 0.0, 0.0])
-        transform, sigma = start, sigma0[j]
-        scales: list[float | None] = [None, None]
+        sub = guess.sub(j)
+        transform, sigma, along = start, sub.sigma, sub.along
+        scales: list[float | None] = [None, None, None]
         for round_ in range(3):
-            residual = (observed - design @ transform).reshape(-1, 2)
-            norm = np.hypot(residual[:, 0], residual[:, 1])
-            if round_:
+            fitted = design @ transform
+            observed, nearer, mixed = _ways(centre, fitted, sub, along)
+            if round_:  # the scales from the places nearer each row, ahead or behind
                 floor = _residual_floor(self.prior)
-                sigma, scales = _rescaled(norm, sigma0[j], directed[j], floor, sure[j])
-            normal = self._normal(design, norm, sigma)
-            rhs = design.T @ (np.repeat(_weights(norm, sigma), 2) * observed)
+                sigma, along, scales = _rescaled((nearer - fitted).reshape(-1, 2), sub, floor)
+            residual = (observed - fitted).reshape(-1, 2)
+            weights = _weights(residual, sigma, np.sqrt(along**2 + mixed))
+            normal = self._normal(design, weights)
+            rhs = design.T @ (weights * observed)
             rhs += self._change_w * self.transform + self._absolute_w * home
             transform = np.linalg.solve(normal, rhs)
         # The stated error takes the spreads shrunk towards the running scales (the fit keeps
         # this picture's own: its transform is the same with or without the shrinking).
-        shrunk = _shrunk(sigma, directed[j], self._scales, sure[j])
-        cov = np.linalg.inv(self._normal(design, norm, shrunk))
+        sigma, along = _shrunk(sigma, along, sub, self._scales)
+        cov = np.linalg.inv(
+            self._normal(design, _weights(residual, sigma, np.sqrt(along**2 + mixed)))
+        )
         spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
         error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
         return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0)), scales
 
-    def _normal(self, design: np.ndarray, norm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-        """The fit's normal matrix: the pairs' Cauchy weights and the priors."""
-        w2 = np.repeat(_weights(norm, sigma), 2)
-        normal = design.T @ (w2[:, None] * design)
+    def _normal(self, design: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """The fit's normal matrix: the design's rows ``weights`` and the priors."""
+        normal = design.T @ (weights[:, None] * design)
         normal[np.diag_indices(4)] += self._change_w + self._absolute_w
         return normal
 
@@ -452,9 +533,55 @@ class Registration:
                 # Less the displacement the team shares (its median): that holds this picture's
                 # registration error, which must not be predicted to persist.
                 motion[i] -= np.median(motion[i], axis=0)
+                self._learn_onward(motion[i], j)
                 self._step = float(np.median(np.hypot(motion[i, 0], motion[i, 1])))
         self._previous = registered[:, :2].copy()
         self._motion = motion
+
+    def _axes(self, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which of the displacements ``motion`` ``(K, 2)`` (NaN: unknown) give their robot an
+        axis, and their lengths: those at least ``HEADING_MIN`` of the typical one, and
+        ``AXIS_SIGMAS`` times what the registration and the detector may have put in them (a
+        team that stands still moves by the registration's own error, whose pattern (a turn or
+        a zoom) would leave the fit free in just that direction)."""
+        assert self._step is not None
+        length = np.hypot(motion[:, 0], motion[:, 1])
+        least = max(
+            HEADING_MIN * self._step,
+            AXIS_SIGMAS * math.hypot(self.error, _residual_floor(self.prior)),
+        )
+        return np.isfinite(length) & (length > 0.0) & (length >= least), length
+
+    def _learn_onward(self, motion: np.ndarray, previous: np.ndarray) -> None:
+        """Learn, from the robots that had an axis (rows ``previous`` of the previous picture,
+        their new displacement ``motion``), how far they went on along it and how far back, and
+        the share that went on (running averages, :data:`SCALE_MEMORY`)."""
+        if self._step is None or self._motion is None:
+            return
+        old = self._motion[previous]
+        directed, length = self._axes(old)
+        if int(directed.sum()) < MIN_PAIRS:
+            return
+        along = np.sum(motion[directed] * old[directed], axis=1) / length[directed]
+        on = along > 0.0
+        before = self._onward_or_prior()
+        now = (
+            float(np.median(along[on])) if on.any() else before[0],
+            float(np.median(-along[~on])) if (~on).any() else before[1],
+            min(max(float(np.mean(on)), WAY_SHARE_MIN), 1.0 - WAY_SHARE_MIN),
+        )
+        mixed = [
+            (1.0 - SCALE_MEMORY) * b + SCALE_MEMORY * n for b, n in zip(before, now, strict=True)
+        ]
+        self._onward = (mixed[0], mixed[1], mixed[2])
+
+    def _onward_or_prior(self) -> tuple[float, float, float]:
+        """How far the robots with an axis go on along it and back (image units), and the share
+        that goes on: as learnt, or ``MODE_SHARE`` of the typical step either way, even odds."""
+        assert self._step is not None
+        if self._onward is not None:
+            return self._onward
+        return MODE_SHARE * self._step, MODE_SHARE * self._step, 0.5
 
 
 def _none(count: int) -> np.ndarray:
@@ -462,20 +589,21 @@ def _none(count: int) -> np.ndarray:
     return np.zeros(count, bool)
 
 
-def _anchored(
-    guess: tuple[np.ndarray, ...], anchors: Anchors | None, floor: float
-) -> tuple[np.ndarray, ...]:
-    """``guess`` ``(target, sigma, directed, sure)`` with the ``anchors``' rows predicted by
-    their robots' own tracks (their spreads at least ``floor``), sure and not directed."""
+def _anchored(guess: Guess, anchors: Anchors | None, floor: float) -> Guess:
+    """``guess`` with the ``anchors``' rows predicted by their robots' own tracks (their
+    spreads at least ``floor``, the same in every direction), sure and not directed."""
     if anchors is None:
         return guess
-    target, sigma, directed, sure = (a.copy() for a in guess)
+    out = Guess(*(a.copy() for a in guess))
     row = anchors.row
-    target[row] = anchors.target
-    sigma[row] = np.maximum(anchors.sigma, floor)
-    directed[row] = False
-    sure[row] = True
-    return target, sigma, directed, sure
+    out.target[row] = anchors.target
+    out.sigma[row] = np.maximum(anchors.sigma, floor)
+    out.along[row] = out.sigma[row]
+    out.axis[row] = (1.0, 0.0)
+    out.ahead[row] = out.behind[row] = out.back_cost[row] = 0.0
+    out.directed[row] = False
+    out.sure[row] = True
+    return out
 
 
 def _first_error(prior: RegistrationPrior) -> float:
@@ -491,47 +619,111 @@ def _residual_floor(prior: RegistrationPrior) -> float:
     return max(math.sqrt(2.0) * prior.pixel_noise, 0.01)
 
 
-def _weights(norm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """The pairs' weights: their spreads ``sigma``, down-weighted (Cauchy) by their residual
-    lengths ``norm``."""
-    return 1.0 / (sigma**2 * (1.0 + (norm / (CAUCHY_SIGMAS * sigma)) ** 2))
+def _turned(x: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
+    """The interleaved ``(u, v)`` rows of ``x`` (``(2K, ...)``) turned onto the unit vectors
+    ``(t0, t1)``: each pair's ``(along, across)``."""
+    u, v = x[0::2], x[1::2]
+    if x.ndim > 1:
+        t0, t1 = t0[:, None], t1[:, None]
+    out = np.empty_like(x)
+    out[0::2], out[1::2] = t0 * u + t1 * v, t0 * v - t1 * u
+    return out
+
+
+def _costs(along: np.ndarray, guess: Guess, spread: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For rows ``along`` their guesses' axes from the guesses' targets (image units,
+    ``(K,)``): the squared Mahalanobis lengths along the axis (in ``spread``) from the places
+    ahead and behind, each with its odds' cost (the likelier way's 0)."""
+    ahead = (along - guess.ahead) ** 2 / spread**2 + np.maximum(-guess.back_cost, 0.0)
+    behind = (along + guess.behind) ** 2 / spread**2 + np.maximum(guess.back_cost, 0.0)
+    return ahead, behind
+
+
+def _ways(
+    centre: np.ndarray, fitted: np.ndarray, guess: Guess, spread: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For the rows ``fitted`` (interleaved ``(along, across)`` rows, ``centre`` those of their
+    guesses' targets): the place the guesses give them (ahead and behind weighed by how well
+    each explains the row, in ``spread`` along the axis, the odds counted), the nearer of the
+    two, and ``(K,)`` the variance that weighing adds along the axis (the mixture's
+    spread)."""
+    ahead, behind = _costs(fitted[0::2] - centre[0::2], guess, spread)
+    on = 0.5 * (1.0 + np.tanh(0.25 * (behind - ahead)))  # the chance it went on
+    mixed, nearer = centre.copy(), centre.copy()
+    mixed[0::2] += on * guess.ahead - (1.0 - on) * guess.behind
+    nearer[0::2] += np.where(behind < ahead, -guess.behind, guess.ahead)
+    return mixed, nearer, on * (1.0 - on) * (guess.ahead + guess.behind) ** 2
+
+
+def _mahalanobis(offset: np.ndarray, guess: Guess) -> np.ndarray:
+    """The lengths of ``offset`` ``(K, 2)`` (along and across the guesses' axes, image units,
+    from their targets to the rows) from the nearer of their places, in the ``guess``'s
+    spreads (the odds counted)."""
+    ahead, behind = _costs(-offset[:, 0], guess, guess.along)
+    return np.sqrt(np.minimum(ahead, behind) + (offset[:, 1] / guess.sigma) ** 2)
+
+
+def _weights(residual: np.ndarray, sigma: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """``(2K,)`` the weights of the pairs' rows (along, across their axes; ``residual``
+    ``(K, 2)``): their spreads ``along`` and ``sigma``, down-weighted (Cauchy) by the
+    residual's length in those spreads."""
+    norm = np.hypot(residual[:, 0] / along, residual[:, 1] / sigma)
+    cauchy = 1.0 / (1.0 + (norm / CAUCHY_SIGMAS) ** 2)
+    out = np.empty(2 * len(sigma))
+    out[0::2], out[1::2] = cauchy / along**2, cauchy / sigma**2
+    return out
 
 
 def _rescaled(
-    norm: np.ndarray, sigma: np.ndarray, directed: np.ndarray, floor: float, sure: np.ndarray
-) -> tuple[np.ndarray, list[float | None]]:
-    """The guesses' spreads ``sigma`` set, for the directed and the other pairs apart where
-    each has :data:`MIN_PAIRS`, to their residuals' robust scale: the median residual length
-    over a two-dimensional Gaussian's (:data:`RAYLEIGH_MEDIAN`); and those scales (``None``
-    where too few pairs). The anchored pairs (``sure``) keep their own spreads, widened by
-    their residuals' robust scale over those spreads where that is above one (where a
-    similarity cannot follow the picture, or an anchor was wrong)."""
-    out = sigma.copy()
-    scales: list[float | None] = [None, None]
-    for k, group in enumerate((directed & ~sure, ~directed & ~sure)):
-        if int(group.sum()) >= MIN_PAIRS:
-            scales[k] = max(float(np.median(norm[group])) / RAYLEIGH_MEDIAN, floor)
-            out[group] = scales[k]
+    residual: np.ndarray, guess: Guess, floor: float
+) -> tuple[np.ndarray, np.ndarray, list[float | None]]:
+    """The guesses' spreads (across and along their axes, ``guess`` of the pairs) set to their
+    residuals' robust scales where a group has :data:`MIN_PAIRS`: the directed pairs across
+    and along their axes apart (the median absolute residual over a Gaussian's, 0.6745), the
+    others in every direction (the median residual length over a two-dimensional Gaussian's,
+    :data:`RAYLEIGH_MEDIAN`); and those scales (``None`` where too few pairs). The anchored
+    pairs (``sure``) keep their own spreads, widened by their residuals' robust scale over
+    those spreads where that is above one (where a similarity cannot follow the picture, or an
+    anchor was wrong)."""
+    sigma, along = guess.sigma.copy(), guess.along.copy()
+    scales: list[float | None] = [None, None, None]
+    sure = guess.sure
+    directed, others = guess.directed & ~sure, ~guess.directed & ~sure
+    if int(directed.sum()) >= MIN_PAIRS:
+        scales[0] = max(float(np.median(np.abs(residual[directed, 1]))) / NORMAL_MAD, floor)
+        scales[2] = max(float(np.median(np.abs(residual[directed, 0]))) / NORMAL_MAD, floor)
+        sigma[directed], along[directed] = scales[0], scales[2]
+    if int(others.sum()) >= MIN_PAIRS:
+        norm = np.hypot(residual[others, 0], residual[others, 1])
+        scales[1] = max(float(np.median(norm)) / RAYLEIGH_MEDIAN, floor)
+        sigma[others] = along[others] = scales[1]
     if int(sure.sum()) >= MIN_PAIRS:
-        ratio = float(np.median(norm[sure] / sigma[sure])) / RAYLEIGH_MEDIAN
-        out[sure] = sigma[sure] * max(ratio, 1.0)
-    return out, scales
+        norm = np.hypot(residual[sure, 0], residual[sure, 1])
+        ratio = float(np.median(norm / guess.sigma[sure])) / RAYLEIGH_MEDIAN
+        sigma[sure] = along[sure] = guess.sigma[sure] * max(ratio, 1.0)
+    return sigma, along, scales
 
 
 def _shrunk(
-    sigma: np.ndarray, directed: np.ndarray, running: list[float | None], sure: np.ndarray
-) -> np.ndarray:
-    """The spreads ``sigma`` of the directed pairs and of the others shrunk towards the
-    ``running`` scale of their group (where there is one), weighed as
-    :data:`SCALE_PRIOR_PAIRS` pairs against the group's own (the anchored pairs, ``sure``,
-    keep theirs)."""
-    out = sigma.copy()
-    for k, group in enumerate((directed & ~sure, ~directed & ~sure)):
-        count, before = int(group.sum()), running[k]
+    sigma: np.ndarray, along: np.ndarray, guess: Guess, running: list[float | None]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The spreads ``sigma`` (across) and ``along`` of the pairs (``guess``) shrunk towards the
+    ``running`` scale of their group (where there is one: the directed pairs across and along
+    their axes, the others), weighed as :data:`SCALE_PRIOR_PAIRS` pairs against the group's
+    own (the anchored pairs keep theirs)."""
+    sigma, along = sigma.copy(), along.copy()
+    directed, others = guess.directed & ~guess.sure, ~guess.directed & ~guess.sure
+    for group, spread, before in (
+        (directed, sigma, running[0]),
+        (others, sigma, running[1]),
+        (directed, along, running[2]),
+        (others, along, running[1]),
+    ):
+        count = int(group.sum())
         if count and before is not None:
-            mixed = SCALE_PRIOR_PAIRS * before**2 + count * np.square(sigma[group])
-            out[group] = np.sqrt(mixed / (SCALE_PRIOR_PAIRS + count))
-    return out
+            mixed = SCALE_PRIOR_PAIRS * before**2 + count * np.square(spread[group])
+            spread[group] = np.sqrt(mixed / (SCALE_PRIOR_PAIRS + count))
+    return sigma, along
 
 
 def _same(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:

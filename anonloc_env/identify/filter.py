@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from anonloc_env import compiled
-from anonloc_env.identify import fused, fused_calls, kernels
+from anonloc_env.identify import first_step, fused, fused_calls, kernels
 from anonloc_env.identify.anchors import sure_moves
 from anonloc_env.identify.arrays import add_grouped, group_starts, rank_in_group
 from anonloc_env.identify.camera_pose import Registration, apply
@@ -54,6 +54,7 @@ class Identifier:
         self.fast = fast
         if fast and compiled.mode() is not None:
             fused.load()  # once per process, not at the first picture
+            first_step.load()
         # A robot is never certain to be in a picture (it may leave the view): a floor of 1e-6
         # keeps its identity recoverable without costing more than one miss per track.
         self.log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))

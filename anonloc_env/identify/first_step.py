@@ -343,3 +343,24 @@ def _pruned(
                 count += 1
         lo = hi
     return count
+
+
+_LOADED: list[bool] = []
+
+
+def load() -> None:
+    """Compile, or load from numba's cache, this module's passes once per process, by calling
+    each on a tiny input of the types ``ring_leg`` passes (``Identifier`` calls it beside
+    ``fused.load``): the time goes to building the identifier, not to its first picture
+    without headings."""
+    if _LOADED:
+        return
+    index = np.zeros(1, dtype=np.int64)
+    floats = np.ones(1)
+    robot, pair = np.ones((14, 1)), np.ones((5, 1))
+    _gated(index, index, index, index, robot, pair, GATE_CHI2, True, (index, index, floats))
+    _ringed(index, index, index, floats, robot, pair, np.ones(4), True, floats)
+    _i0_terms(floats, floats.copy())
+    out = (index.copy(), floats.copy(), floats.copy(), floats.copy())
+    _pruned(index, index, index, floats, floats, floats, robot, pair, np.ones(4), 1.0, out)
+    _LOADED.append(True)
