@@ -26,7 +26,9 @@ Usage::
 
 (run from the repository's root). The conditions are
 :func:`benchmarks.agent_conditions.evaluation_conditions` (one robot per square metre,
-1 px of noise, no headings unless said, a picture every second).
+1 px of noise, no headings unless said, a picture every second); the crowds
+(:func:`~benchmarks.agent_conditions.crowded_conditions`) and the conditions beyond the training
+draws (:func:`~benchmarks.agent_conditions.beyond_conditions`) run when named.
 """
 
 from __future__ import annotations
@@ -48,7 +50,11 @@ from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.scoring import pictures_to_identify
 from baselines.statistics import SurvivalMedian, bootstrap_mean, km_median, paired_ratio
-from benchmarks.agent_conditions import crowded_conditions, evaluation_conditions
+from benchmarks.agent_conditions import (
+    beyond_conditions,
+    crowded_conditions,
+    evaluation_conditions,
+)
 
 BASELINES = ("uniform", "random", "distinct", "greedy")
 #: The centralized reference (``baselines.excitations.code.CentralizedCode``: knows identities).
@@ -158,7 +164,7 @@ def main() -> None:
     built = makers(args.agent, args.excitations, args.rest)
     conditions = evaluation_conditions()
     names = args.conditions or list(conditions)
-    conditions |= crowded_conditions()  # run when named
+    conditions |= crowded_conditions() | beyond_conditions()  # run when named
     rows = []
     print(
         "| condition | excitation | pictures to 99 % | KM median | reached | energy (m) | wrong "

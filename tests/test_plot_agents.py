@@ -8,8 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from agents.conditions import TRAINING_ROBOTS, ConditionRanges
 from baselines.limit import picture_limit
-from benchmarks.agent_conditions import evaluation_conditions
+from benchmarks.agent_conditions import beyond_conditions, evaluation_conditions
 from benchmarks.plot_agents import check_rows, limits, plot
 
 
@@ -41,6 +42,35 @@ def test_the_ten_conditions() -> None:
     assert swarm == ["swarm N=10", "swarm N=100"]
     with pytest.raises(ValueError, match="pictures must be an integer >= 1"):
         evaluation_conditions(0)
+
+
+def test_the_conditions_beyond_change_one_thing_each_beyond_the_training_draws() -> None:
+    beyond = beyond_conditions()
+    base = evaluation_conditions()["free N=30"][0]
+    ranges = ConditionRanges()
+    two, _, _ = beyond["free N=2"]
+    assert two.n_robots == 2
+    assert two.n_robots not in TRAINING_ROBOTS
+    sparse, _, _ = beyond["sparse N=30"]
+    assert 30 / (sparse.arena_size[0] * sparse.arena_size[1]) == pytest.approx(0.25)
+    assert ranges.density[0] > 0.25
+    noisy = beyond["noise 3 px N=30"][0].camera
+    assert noisy.pixel_noise == 3.0 > ranges.pixel_noise[1]
+    clutter = beyond["heavy clutter N=30"][0].camera
+    assert clutter.p_miss > ranges.p_miss[1]
+    assert clutter.false_positives > ranges.false_positives[1]
+    odometry = beyond["odometry N=30"][0]
+    assert odometry.robot.odometry_noise == 0.05
+    assert base.robot.odometry_noise == 0.0
+    config, condition, budget = beyond["swarm N=30, budget 0.05"]
+    assert (condition, budget) == ("swarm", 0.05)
+    assert budget < ranges.budget[0]
+    assert config == base
+    for name in ("noise 3 px N=30", "heavy clutter N=30"):
+        assert beyond[name][0].robot == base.robot
+        assert beyond[name][0].n_robots == 30
+    with pytest.raises(ValueError, match="pictures must be an integer >= 1"):
+        beyond_conditions(0)
 
 
 def test_bad_rows_and_names_are_refused() -> None:
