@@ -8,7 +8,12 @@ one transform per picture shared by all rows: a similarity about the principal p
 ``u' = cu + a (u - cu) - b (v - cv) + tx``, ``v' = cv + b (u - cu) + a (v - cv) + ty``
 
 (``a = (1 + s) cos(phi)``, ``b = (1 + s) sin(phi)``: a scale change ``s`` from the height, a turn
-``phi`` from the yaw, a shift from the drift and what the gimbal left of the tilt).
+``phi`` from the yaw, a shift from the drift and what the gimbal left of the tilt), and, where
+the tilt the gimbal leaves bends the picture at the view's radius by more than the detector's
+noise (``drone-windy`` from N = 100 on at 1 robot per m^2), its perspective to first order:
+``u'`` and ``v'`` less ``du (g du + h dv)`` and ``dv (g du + h dv)`` (``du = u - cu``,
+``dv = v - cv``), ``g`` and ``h`` the tilt's two components over the camera's height in
+image units, with their prior from the gimbal's process (held at 0 below the noise).
 
 The estimator uses what every robot has, the pictures: the robots are the scene. Between two
 pictures every row moves by the camera's change plus its robot's own displacement, which is
@@ -66,6 +71,8 @@ from anonloc_env.identify.arrays import is_shared, shared
 from anonloc_env.landmarks import landmark_error
 from anonloc_env.neighbours import pairs_within
 
+#: The transform at the set point: ``(a, b, tx, ty, g, h)``.
+HOME = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 #: Median absolute value of a standard Gaussian number.
 NORMAL_MAD = 0.6745
 #: Cauchy scale of the pair weights, in standard deviations of a pair's residual.
@@ -173,8 +180,9 @@ class RegistrationPrior:
         pixel_noise: the detector's standard deviation per coordinate (image units).
         radius: root mean square distance of the field of view's points from its centre
             (image units).
-        change: standard deviations of the change of ``(a, b, tx, ty)`` between two pictures.
-        absolute: standard deviations of ``(a - 1, b, tx, ty)`` about the set point.
+        change: standard deviations of the change of ``(a, b, tx, ty, g, h)`` between two
+            pictures (``g``, ``h``: per image unit; 0 where the perspective is held at 0).
+        absolute: standard deviations of ``(a - 1, b, tx, ty, g, h)`` about the set point.
         reach: the farthest a row moves between two pictures (image units): a robot's largest
             displacement plus four standard deviations of the camera's change.
     """
@@ -183,8 +191,8 @@ class RegistrationPrior:
     spread: float
     pixel_noise: float
     radius: float
-    change: tuple[float, float, float, float]
-    absolute: tuple[float, float, float, float]
+    change: tuple[float, float, float, float, float, float]
+    absolute: tuple[float, float, float, float, float, float]
     reach: float
 
 
@@ -218,6 +226,11 @@ def registration_prior(
         _ou_change(cam.drift, cam.drift_time, interval),
         cam.height * _ou_change(tilt, cam.wobble_time, interval),
     )
+    bend = tilt / (s * cam.height)  # the left tilt's perspective, per image unit
+    bend_change = _ou_change(tilt, cam.wobble_time, interval) / (s * cam.height)
+    noise = float(cam.pixel_noise if pixel_noise is None else pixel_noise)
+    if bend * _radius(config) ** 2 < max(noise, 0.01):  # under the detector's noise: held at 0
+        bend = bend_change = 0.0
     zoom = cam.height_wobble / cam.height
     yaw = math.radians(cam.yaw_wobble_deg)
     rotate = math.hypot(zoom, yaw)
@@ -227,15 +240,24 @@ def registration_prior(
     return RegistrationPrior(
         centre=(float(centre[0]), float(centre[1])),
         spread=0.5 * step,
-        pixel_noise=float(cam.pixel_noise if pixel_noise is None else pixel_noise),
+        pixel_noise=noise,
         radius=_radius(config),
         change=(
             max(rotate_change, floor),
             max(rotate_change, floor),
             max(shift_change, floor),
             max(shift_change, floor),
+            bend_change,
+            bend_change,
         ),
-        absolute=(max(rotate, floor), max(rotate, floor), max(shift, floor), max(shift, floor)),
+        absolute=(
+            max(rotate, floor),
+            max(rotate, floor),
+            max(shift, floor),
+            max(shift, floor),
+            bend,
+            bend,
+        ),
         reach=1.2 * step + 4.0 * shift_change + 4.0 * rotate_change * _radius(config),
     )
 
@@ -273,14 +295,20 @@ def registered_pixel_noise(config: EnvConfig, pixel_noise: float) -> float:
 
 
 def apply(transform: np.ndarray, centre: tuple[float, float], rows: np.ndarray) -> np.ndarray:
-    """``rows`` ``(M, >=2)`` with their ``(u, v)`` through the similarity ``(a, b, tx, ty)``
-    about ``centre`` and, if present, their heading turned by its angle."""
-    a, b, tx, ty = transform
+    """``rows`` ``(M, >=2)`` with their ``(u, v)`` through the transform ``(a, b, tx, ty, g, h)``
+    about ``centre`` (a similarity and the left tilt's perspective to first order, see the
+    module docstring; ``(a, b, tx, ty)``: the similarity alone) and, if present, their heading
+    turned by its angle."""
+    a, b, tx, ty = transform[:4]
     cu, cv = centre
     out = np.array(rows, dtype=np.float64, copy=True)
     du, dv = rows[:, 0] - cu, rows[:, 1] - cv
     out[:, 0] = cu + a * du - b * dv + tx
     out[:, 1] = cv + b * du + a * dv + ty
+    if len(transform) > 4 and (transform[4] or transform[5]):
+        bend = transform[4] * du + transform[5] * dv
+        out[:, 0] -= du * bend
+        out[:, 1] -= dv * bend
     if out.shape[1] > 2:
         turned = out[:, 2] + math.atan2(b, a)
         out[:, 2] = (turned + math.pi) % (2.0 * math.pi) - math.pi
@@ -304,13 +332,15 @@ class Registration:
     def __init__(self, prior: RegistrationPrior, orientation: bool = True) -> None:
         self.prior = prior
         self.orientation = orientation
-        self._change_w = 1.0 / np.square(prior.change)
-        self._absolute_w = 1.0 / np.square(prior.absolute)
+        # The perspective is fitted only where the prior gives it room (see registration_prior).
+        self._fitted = 6 if prior.absolute[4] > 0.0 else 4
+        self._change_w = 1.0 / np.square(prior.change[: self._fitted])
+        self._absolute_w = 1.0 / np.square(prior.absolute[: self._fitted])
         self.reset()
 
     def reset(self) -> None:
         """Forget the episode: the next picture is taken as seen from the set point."""
-        self.transform = np.array([1.0, 0.0, 0.0, 0.0])
+        self.transform = HOME.copy()
         self.error = 0.0
         self._previous: np.ndarray | None = None  # registered (u, v) of the previous picture
         self._motion: np.ndarray | None = None  # each previous row's last displacement (or nan)
@@ -375,7 +405,9 @@ class Registration:
         matched and fitted until the matches hold, at most ``MATCH_ROUNDS`` times), its
         pairs, its stated error and its robust scales."""
         transform = self.transform.copy()
-        transform[2:] += self._coarse_shift(apply(transform, self.prior.centre, rows[:, :2]), guess)
+        transform[2:4] += self._coarse_shift(
+            apply(transform, self.prior.centre, rows[:, :2]), guess
+        )
         pairs = (np.zeros(0, np.int64), np.zeros(0, np.int64))
         error = 0.0
         scales: list[float | None] = [None, None, None]
@@ -482,18 +514,21 @@ class Registration:
         # Rows of the design: u' - cu = a du - b dv + tx, v' - cv = b du + a dv + ty, each
         # pair's two turned onto its guess's axis and across it.
         t0, t1 = guess.axis[j, 0], guess.axis[j, 1]
-        design = np.zeros((2 * len(i), 4))
+        design = np.zeros((2 * len(i), 6))
         design[0::2, 0], design[0::2, 1], design[0::2, 2] = du, -dv, 1.0
         design[1::2, 0], design[1::2, 1], design[1::2, 3] = dv, du, 1.0
+        design[0::2, 4], design[0::2, 5] = -du * du, -du * dv
+        design[1::2, 4], design[1::2, 5] = -dv * du, -dv * dv
+        home, k = HOME[: self._fitted], self._fitted
+        design = design[:, :k]
         observed = np.empty(2 * len(i))
         observed[0::2], observed[1::2] = guess.target[j, 0] - cu, guess.target[j, 1] - cv
         design, centre = _turned(design, t0, t1), _turned(observed, t0, t1)
-        home = np.array([1.0, 0.0, 0.0, 0.0])
         sub = guess.sub(j)
         transform, sigma, along = start, sub.sigma, sub.along
         scales: list[float | None] = [None, None, None]
         for round_ in range(3):
-            fitted = design @ transform
+            fitted = design @ transform[:k]
             observed, nearer, mixed = _ways(centre, fitted, sub, along)
             if round_:  # the scales from the places nearer each row, ahead or behind
                 floor = _residual_floor(self.prior)
@@ -502,8 +537,8 @@ class Registration:
             weights = _weights(residual, sigma, np.sqrt(along**2 + mixed))
             normal = self._normal(design, weights)
             rhs = design.T @ (weights * observed)
-            rhs += self._change_w * self.transform + self._absolute_w * home
-            transform = np.linalg.solve(normal, rhs)
+            rhs += self._change_w * self.transform[:k] + self._absolute_w * home
+            transform = np.concatenate([np.linalg.solve(normal, rhs), HOME[k:]])
         # The stated error takes the spreads shrunk towards the running scales (the fit keeps
         # this picture's own: its transform is the same with or without the shrinking).
         sigma, along = _shrunk(sigma, along, sub, self._scales)
@@ -512,12 +547,17 @@ class Registration:
         )
         spread = float(np.mean(du**2 + dv**2)) if len(i) else self.prior.radius**2
         error = 0.5 * (cov[2, 2] + cov[3, 3]) + 0.25 * (cov[0, 0] + cov[1, 1]) * spread
+        if len(i) and k > 4:  # the perspective's: du (g du + h dv) and dv (g du + h dv)
+            radial = du**2 + dv**2
+            error += 0.5 * (
+                cov[4, 4] * np.mean(du**2 * radial) + cov[5, 5] * np.mean(dv**2 * radial)
+            )
         return transform, ERROR_FACTOR * math.sqrt(max(error, 0.0)), scales
 
     def _normal(self, design: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """The fit's normal matrix: the design's rows ``weights`` and the priors."""
         normal = design.T @ (weights[:, None] * design)
-        normal[np.diag_indices(4)] += self._change_w + self._absolute_w
+        normal[np.diag_indices(self._fitted)] += self._change_w + self._absolute_w
         return normal
 
     def _remember(
