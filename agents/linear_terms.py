@@ -8,7 +8,9 @@ depend on the robot's state: whether it has decided its row, and whether it is o
 An agent that sees the crowd features (``agents.spec.AgentSpec.with_crowd_features``) has
 :data:`CROWD_TERMS`: a gate ``crowding`` and a base ``contact_risk`` more; one searched with
 ``size`` has :data:`SIZE_TERMS` more: every base times ``rows_free``, the number of robots in
-the picture on a log scale, in free motion. Terms are named
+the picture on a log scale, in free motion; an agent with the crowd features may have
+:data:`CROWDED_TERMS`, every base times ``crowded``, 1 only where ``crowding`` reaches
+:data:`CROWDED`. Terms are named
 ``base*gate`` and computed by name from the columns the spec gives each feature.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
@@ -63,6 +65,13 @@ CROWD_GATE = Feature("crowding", "the crowding around the believed self (agents.
 SIZE_GATE = Feature(
     "rows_free", "log(rows + 1) / log(1001), rows in the picture, in free motion (0 on duty)"
 )
+#: The ``crowding`` (``agents.crowd_features``) at which the ``crowded`` gate opens: about the
+#: median robot's at 4 robots per m², one robot in twelve at one per m² (``docs/agents.md``,
+#: *More episodes where the verdicts were close*).
+CROWDED = 2.0
+#: A gate that is 1 only in a crowd (``crowding`` at least :data:`CROWDED`), where the product
+#: with ``crowding`` of :data:`CROWD_TERMS` also acts in open space.
+CROWDED_GATE = Feature("crowded", f"1 where the crowding around the believed self is >= {CROWDED}")
 
 
 def _terms(bases: tuple[Feature, ...], gates: tuple[Feature, ...]) -> tuple[Feature, ...]:
@@ -85,8 +94,11 @@ CROWD_TERMS = (
 )
 #: The terms a search with ``size`` adds: every base times the ``rows_free`` gate.
 SIZE_TERMS = _terms(TERM_BASES, (SIZE_GATE,))
+#: The terms an agent with the crowd features may have to act only in a crowd: every base times
+#: the ``crowded`` gate.
+CROWDED_TERMS = _terms(TERM_BASES, (CROWDED_GATE,))
 #: Every term this anonloc can compute, by name.
-KNOWN_TERMS = {t.name: t for t in CROWD_TERMS + SIZE_TERMS}
+KNOWN_TERMS = {t.name: t for t in CROWD_TERMS + SIZE_TERMS + CROWDED_TERMS}
 
 
 def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
@@ -106,6 +118,8 @@ def _gate(name: str, context: Any, column: Mapping[str, int]) -> Any:
     if name == "rows_free":
         rows = context[:, None, column["rows"]]
         return rows * (1.0 - context[:, None, column["on_duty"]])
+    if name == "crowded":
+        return (context[:, None, column["crowding"]] >= CROWDED) * 1.0
     return context[:, None, column[name]]
 
 

@@ -11,14 +11,21 @@ free motion is ``w * (1 - BETA * rows)`` (``rows`` is 0.35 at N = 10, 0.67 at N 
 N = 300, 1 at N = 1000), and on duty it is unchanged; ``duty D`` adds ``D`` to
 ``energy*on_duty`` (-1.5, -5, -20: ever cheaper deviations on duty); ``flat`` zeroes the four
 ``always``
-weights. The variants are saved as ordinary linear agents (``agents.linear_agent``).
+weights. ``crowded K`` (eighth round) adds, on top of its base, ``greedy``'s trade only in a
+crowd: the agent sees the crowd features and ``entropy_after*crowded`` is ``-K``,
+``energy*crowded`` ``-K / 2`` (:data:`agents.linear_terms.CROWDED_TERMS`: 0 unless the crowding
+around the robot reaches ``agents.linear_terms.CROWDED``), so that where robots touch it
+drives nearly the candidate of least expected entropy plus half a nat per unit of energy, and
+elsewhere it is its base bit for bit. The variants are saved as ordinary linear agents
+(``agents.linear_agent``).
 
 Usage::
 
     python -m benchmarks.agent_variants OUT_DIR --base BASE.zip  # OUT_DIR/NAME.zip for each
 
 The seventh round's variants were made from the agent bundled until then (``--base``: ``git show
-ec78ad0:agents/data/agent.zip > base.zip``); ``size-1.0`` is the agent bundled since.
+ec78ad0:agents/data/agent.zip > base.zip``); ``size-1.0`` is the agent bundled since. The
+eighth round's ``crowded`` variants were made from that one (``--base bundled``).
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from agents.linear_agent import linear_weights, save_linear_agent
-from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
+from agents.linear_terms import CROWDED_TERMS, LINEAR_TERMS, SIZE_TERMS
 from agents.policy import agent_file
 from agents.spec import saved_spec
 
@@ -45,6 +52,19 @@ VARIANTS = {
     "size-1.0-duty-20": (1.0, -20.0, False),
     "flat": (0.0, 0.0, True),
 }
+#: The crowded variants: name -> K.
+CROWDED_VARIANTS = {"crowded-30": 30.0, "crowded-100": 100.0}
+#: The terms of a crowded variant.
+CROWDED_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + CROWDED_TERMS
+
+
+def crowded_weights(base: dict[str, float], k: float) -> np.ndarray:
+    """The weights of the crowded variant ``k`` over :data:`CROWDED_VARIANT_TERMS` (see the
+    module): ``base``'s (0 for a term it lacks), with ``greedy``'s trade where crowded."""
+    out = {t.name: base.get(t.name, 0.0) for t in CROWDED_VARIANT_TERMS}
+    out["entropy_after*crowded"] = -k
+    out["energy*crowded"] = -k / 2
+    return np.array([out[t.name] for t in CROWDED_VARIANT_TERMS])
 
 
 def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: bool) -> np.ndarray:
@@ -72,6 +92,10 @@ def main() -> None:
         path = save_linear_agent(
             variant_weights(bundled, beta, duty, flat), args.out / f"{name}.zip", spec
         )
+        print(f"{name}: {path}")
+    crowd = dataclasses.replace(spec.with_crowd_features(), terms=CROWDED_VARIANT_TERMS)
+    for name, k in CROWDED_VARIANTS.items():
+        path = save_linear_agent(crowded_weights(bundled, k), args.out / f"{name}.zip", crowd)
         print(f"{name}: {path}")
 
 

@@ -21,7 +21,15 @@ from agents.candidate_features import CANDIDATE_SPEC, CONTEXT_SPEC, Feature
 from agents.candidates import CandidateChooser
 from agents.features import LinearScorer
 from agents.linear_agent import linear_spec, save_linear_agent
-from agents.linear_terms import CROWD_TERMS, LINEAR_TERMS, linear_terms
+from agents.linear_terms import (
+    CROWD_TERMS,
+    CROWDED,
+    CROWDED_TERMS,
+    KNOWN_TERMS,
+    LINEAR_TERMS,
+    TERM_BASES,
+    linear_terms,
+)
 from agents.policy import load_model
 from agents.search import LinearChooser
 from agents.spec import AgentSpec, check_features, check_saved
@@ -142,3 +150,24 @@ def test_the_flat_observation_refuses_the_crowd_features() -> None:
     env = BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2))  # the dict form takes them
     observations, _ = env.reset(seed=0)
     assert observations[env.possible_agents[0]]["context"].shape == (len(CONTEXT_SPEC) + 2,)
+
+
+def test_the_crowded_gate_opens_only_at_the_threshold_in_numpy_and_torch() -> None:
+    """``base*crowded`` is the base where the crowding reaches ``CROWDED`` and 0 below it, the
+    same in numpy and torch (what lets an agent act only in a crowd)."""
+    terms = tuple(KNOWN_TERMS[f"{b.name}*crowded"] for b in TERM_BASES)
+    assert terms == CROWDED_TERMS
+    candidates = np.random.default_rng(2).normal(size=(3, 8, len(CROWD.candidate_features)))
+    context = np.zeros((3, len(CROWD.context_features)))
+    context[:, CROWD.columns()[1]["crowding"]] = [CROWDED - 0.01, CROWDED, 3 * CROWDED]
+    out = linear_terms(candidates, context, np.stack, terms, CROWD.columns())
+    entropy = candidates[..., CROWD.columns()[0]["entropy_after"]]
+    column = [t.name for t in terms].index("entropy_after*crowded")
+    np.testing.assert_array_equal(out[0, :, column], 0.0)
+    np.testing.assert_array_equal(out[1:, :, column], entropy[1:])
+    scorer = LinearScorer(8, len(CROWD.context_features), terms, CROWD.columns())
+    weights = np.arange(1.0, len(terms) + 1)
+    with torch.no_grad():
+        scorer.weights.copy_(torch.as_tensor(weights))
+        logits, _ = scorer(torch.as_tensor(candidates).float(), torch.as_tensor(context).float())
+    np.testing.assert_allclose(logits.numpy(), out @ weights, rtol=1e-5, atol=1e-4)
