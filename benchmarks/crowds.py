@@ -119,8 +119,16 @@ class _PoseTap:
 
 def parse_changes(texts: Sequence[str]) -> dict[str, tuple[str, float]]:
     """``NAME=VALUE`` (set) and ``NAME*=FACTOR`` (scale) changes of ``SensorModel`` fields, as
-    ``{name: (op, number)}``; a name that is no numeric field of the model is refused."""
-    numeric = {"push_share", "crowd_push_share", "crowd_push_tail", "crowd_jam", "contact_break"}
+    ``{name: (op, number)}`` (``filter_position``: 0 or 1); a name that is no numeric field of
+    the model is refused."""
+    numeric = {
+        "push_share",
+        "crowd_push_share",
+        "crowd_push_tail",
+        "crowd_jam",
+        "contact_break",
+        "filter_position",
+    }
     out: dict[str, tuple[str, float]] = {}
     for text in texts:
         op = "*=" if "*=" in text else "="
@@ -143,7 +151,12 @@ def changed(model: SensorModel, changes: Mapping[str, tuple[str, float]]) -> Sen
         if now is None:
             continue
         value = now * number if op == "*=" else number
-        fields[name] = int(value) if name == "crowd_jam" else float(value)
+        if name == "crowd_jam":
+            fields[name] = int(value)
+        elif isinstance(now, bool):
+            fields[name] = bool(value)
+        else:
+            fields[name] = float(value)
     return dataclasses.replace(model, **fields)
 
 
@@ -260,8 +273,11 @@ def replay(model: SensorModel, result: EpisodeResult) -> list[tuple[np.ndarray, 
 
 
 def without_contact_model(model: SensorModel) -> SensorModel:
-    """``model`` without the crowd's contact model (issue 23): what the identifier was."""
-    return dataclasses.replace(model, crowd_push_share=None, contact_break=0.0)
+    """``model`` without the crowd's contact model and filtered positions (issue 23): what the
+    identifier was."""
+    return dataclasses.replace(
+        model, crowd_push_share=None, contact_break=0.0, filter_position=False
+    )
 
 
 CAUSES = ("jam", "slide", "swap", "crossing", "other")

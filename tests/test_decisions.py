@@ -67,7 +67,9 @@ def test_hold_keeps_right_decisions_through_the_dips() -> None:
     """On the recorded ``uniform`` episode the plain rule loses 11 right decisions (pressed
     robots whose belief dipped below 0.99, own row on top); held down to 0.9 along the decided
     track, 2 are lost, 16 decisions are held, and none is wrong either way. On the ``greedy``
-    one 11 against none, for one more wrong decision (2 against 1): the hold's cost."""
+    one 8 against 1, one decision wrong either way (with tracks anchored at their detections,
+    before the eighth round's filtered positions: 11 against none, 1 wrong against 2, the
+    hold's cost)."""
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(FALL, rules)
     assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (11, 2)
@@ -75,8 +77,8 @@ def test_hold_keeps_right_decisions_through_the_dips() -> None:
     assert rules["hold"].held == 16
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(PRESSED, rules)
-    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (11, 0)
-    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (1, 2)
+    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (8, 1)
+    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (1, 1)
 
 
 def test_a_decided_track_continues_at_the_robots_own_row() -> None:

@@ -255,3 +255,20 @@ def test_the_others_links_are_the_same_to_the_bit() -> None:
             seen["big"] += bool((off.ends == 0.0).any())
             seen["moved"] += len(off.moved_row) > 0
     assert min(seen.values()) > 10, seen
+
+
+@pytest.mark.parametrize("orientation", [False, True])
+def test_filtered_positions_are_the_same_to_the_bit(orientation: bool) -> None:
+    """A clean crowd (100 robots at 4 per m^2, no misses, no false positives), where
+    ``from_config`` filters the tracks' positions: the same to the bit, kernels on and off, and
+    the compiled children ran."""
+    camera = {"pixel_noise": 1.0, "p_miss": 0.0, "false_positives": 0.0}
+    config, episode = _record(
+        4, 10, n_robots=100, arena_size=(5.0, 5.0), camera={**camera, "orientation": orientation}
+    )
+    model = SensorModel.from_config(config)
+    assert model.filter_position
+    with _calls("known_children") as anchored:
+        on = _run(model, config.n_robots, episode, kernels_on=True)
+    assert anchored
+    _same(on, _run(model, config.n_robots, episode, kernels_on=False))

@@ -16,7 +16,9 @@ Model (image frame, right-handed; see ``docs/baselines.md`` for the derivation):
   track by row ``q`` multiplies its weight by ``P_D f(z_q | track) / lambda``; by a miss, by
   ``1 - P_D``. With the heading unknown (no orientation, first interval) ``f`` is the ring density
   of ``|q - p|`` around ``s |d|`` (the heading marginalised); afterwards an extended Kalman filter
-  on ``(theta, log s)`` predicts ``q = p + s R(theta) d``.
+  on ``(theta, log s)`` predicts ``q = p + s R(theta) d``. A track's position ``p`` is its newest
+  detection, or, with ``SensorModel.filter_position`` (a crowd), that detection combined with
+  the track's prediction (a robot standing still is at the mean of its detections).
 * "Nothing known yet" is kept implicitly: a weight spread evenly over the rows of the newest
   picture, and a weight for "not anchored anywhere" (missed, outside the view). Nothing is ever
   discarded for good, so an identity lost in a blackout is found again.

@@ -21,6 +21,7 @@ from anonloc_env.identify.arrays import (
     group_sizes,
     group_starts,
     is_shared,
+    near_best,
     positions,
     take_field,
 )
@@ -31,6 +32,8 @@ from anonloc_env.identify.likelihood import (
     Geometry,
     Pairs,
     Scoring,
+    filter_positions,
+    fresh_children,
     kalman,
     orientation,
     pruned,
@@ -246,7 +249,11 @@ def _finish_compiled(
     if model.orientation and not np.isfinite(child.theta).all():  # numpy's other branch
         orientation(rows[cand, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
         logw = sub.logw[parent] + scoring.log_pd + child.loglik - (bg if len(bg) > 1 else bg[0])
-        return pruned(slot, cand, rows[cand], logw, child, pix_var)
+        if not model.filter_position:
+            return pruned(slot, cand, rows[cand], logw, child, pix_var)
+        near, _ = near_best(slot, logw, PRUNE_NATS)
+        tracks = fresh_children(near, slot, cand, rows[cand], logw, child, pix_var)
+        return filter_positions(tracks, sub, parent[near], interval, model)
     log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
     theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
     keep, logw = fused.finish_known(
@@ -263,7 +270,7 @@ def _finish_compiled(
     )
     kept = len(keep)
     c = cand[keep]
-    return Tracks.fresh(
+    tracks = Tracks.fresh(
         slot[keep],
         c,
         positions(rows, c),
@@ -275,3 +282,6 @@ def _finish_compiled(
         p_ts=take_field(child.p_ts, keep, kept),
         p_ss=take_field(child.p_ss, keep, kept),
     )
+    if model.filter_position:
+        filter_positions(tracks, sub, parent[keep], interval, model)
+    return tracks

@@ -35,6 +35,8 @@ from anonloc_env.identify.likelihood import (
     Child,
     Pairs,
     Scoring,
+    filter_positions,
+    fresh_children,
     orientation,
     pruned,
 )
@@ -386,4 +388,8 @@ def known_children(
     if model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = tracks.logw[parent] + scoring.log_pd + child.loglik - log_bg
-    return pruned(slot, cand, z, logw, child, pix_var)
+    if not model.filter_position:
+        return pruned(slot, cand, z, logw, child, pix_var)
+    keep, _ = near_best(slot, logw, PRUNE_NATS)
+    out = fresh_children(keep, slot, cand, z, logw, child, pix_var)
+    return filter_positions(out, tracks, parent[keep], interval, model)

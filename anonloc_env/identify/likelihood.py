@@ -80,7 +80,52 @@ def children(
     if scoring.model.orientation:
         orientation(z[:, 2], scoring.theta_var, child.theta, child.p_tt, child.loglik)
     logw = parent.logw + scoring.log_pd + child.loglik - log_bg
-    return pruned(parent.slot, cand, z, logw, child, pix_var)
+    if not scoring.model.filter_position:
+        return pruned(parent.slot, cand, z, logw, child, pix_var)
+    keep, _ = near_best(parent.slot, logw, PRUNE_NATS)
+    out = fresh_children(keep, parent.slot, cand, z, logw, child, pix_var)
+    return filter_positions(out, parent, keep, interval, scoring.model)
+
+
+def filter_positions(
+    out: Tracks, parents: Tracks, index: np.ndarray, interval: Interval, model: SensorModel
+) -> Tracks:
+    """``out``, the children of tracks ``index`` of ``parents`` (one each, at their detections,
+    uncertain by the pixel variance), with ``SensorModel.filter_position``'s positions (in
+    place): where the parent knows its heading and scale, the detection combined with the
+    parent's predicted position ``p + s R(theta) d`` (a Kalman step on the position alone, the
+    prediction's variance taken in its worst direction: the parent's position, the odometry,
+    the pushes' largest eigenvalue, the heading and scale over the leg). Consecutive legs
+    share a detection's noise: a track anchored at each detection scores a still robot's
+    pictures as a random walk, and its rivals' fits vary half as much again as they should
+    (docs/crowds.md, eighth round). Every path calls it on the children it keeps, so the
+    positions are the same floats whichever path scored them."""
+    theta, log_s = parents.theta[index], parents.log_s[index]
+    k = np.flatnonzero(np.isfinite(theta) & np.isfinite(log_s))
+    if len(k) == 0:
+        return out
+    slot = out.slot[k]
+    s = np.exp(log_s[k])
+    step = rotate(interval.d[slot], theta[k]) * s[:, None]
+    var_d, _ = interval.variances(model.odometry_noise)
+    rho = np.hypot(interval.d[slot, 0], interval.d[slot, 1])
+    leg2 = (s * rho) ** 2
+    parent = index[k]
+    spread = parents.pos_var[parent] + s**2 * var_d[slot] + (model.scale_spread * s * rho) ** 2
+    spread = spread + (parents.p_tt[parent] + parents.p_ss[parent]) * leg2
+    if interval.push is not None:
+        cov = push_covariance(interval, model)[slot]
+        half = 0.5 * (cov[:, 0, 0] + cov[:, 1, 1])
+        det = cov[:, 0, 0] * cov[:, 1, 1] - cov[:, 0, 1] ** 2
+        spread = spread + s**2 * (half + np.sqrt(np.maximum(half**2 - det, 0.0)))
+    pix_var = out.pos_var[k]
+    gain = pix_var / (spread + pix_var)
+    z = out.pos[k]
+    out.pos[k] = z + gain[:, None] * (parents.pos[parent] + step - z)
+    pos_var = np.array(out.pos_var)  # own copy: a first leg's is shared
+    pos_var[k] = spread * gain
+    out.pos_var = pos_var
+    return out
 
 
 def pruned(
@@ -96,6 +141,19 @@ def pruned(
     robot's best: they would be pruned later anyway (the best over all hypotheses is at least as
     high), so they are dropped before they are copied."""
     keep, _ = near_best(slot, logw, PRUNE_NATS)
+    return fresh_children(keep, slot, cand, z, logw, child, pix_var)
+
+
+def fresh_children(
+    keep: np.ndarray,
+    slot: np.ndarray,
+    cand: np.ndarray,
+    z: np.ndarray,
+    logw: np.ndarray,
+    child: Child,
+    pix_var: float,
+) -> Tracks:
+    """The tracks of :func:`pruned`'s candidates ``keep``."""
     count = len(keep)
     return Tracks.fresh(
         slot[keep],
