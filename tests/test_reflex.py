@@ -11,7 +11,13 @@ import pytest
 import anonloc_env
 import baselines
 from baselines.active import GreedyIdentification
-from baselines.excitations import BumpReflex, DistinctSettings, GapSettings
+from baselines.excitations import (
+    BumpReflex,
+    DistinctMotion,
+    DistinctSettings,
+    Excitation,
+    GapSettings,
+)
 from baselines.excitations.candidates import GreedySettings
 from baselines.excitations.uniform import UniformChoice
 from baselines.runner import run_episode
@@ -92,7 +98,7 @@ def test_no_escape_keeps_the_plain_back_off() -> None:
     assert GreedySettings().escape == DistinctSettings((0.1, 0.3), 1.0, 0.08, (0.7, 1.2))
 
 
-def _play(excitation: UniformChoice, seed: int, density: float, n: int, pictures: int) -> list:
+def _play(excitation: Excitation, seed: int, density: float, n: int, pictures: int) -> list:
     side = math.sqrt(n / density)
     config = anonloc_env.make_config(
         n_robots=n,
@@ -150,3 +156,18 @@ def test_in_a_crowd_pressed_robots_escape_in_the_box_and_replay_from_the_seed() 
 def test_candidate_excitations_hold_the_reflex(make: type) -> None:
     assert isinstance(make().backoff, BumpReflex)
     assert make(GreedySettings(escape=None)).backoff.escape is None
+
+
+def test_distinct_holds_the_reflex_and_is_unchanged_where_no_robot_is_pressed() -> None:
+    """``distinct`` escapes jams as the candidate excitations do (``escape=False``: the plain
+    back-off). 8 robots in an 8 m arena, seed 8: no robot pressed, the episode is bit for bit
+    that of the plain back-off; at 4 robots per m^2 robots escape and the episode differs."""
+    new, old = DistinctMotion(), DistinctMotion(escape=False)
+    assert isinstance(new.backoff, BumpReflex)
+    assert new.backoff.escape is not None
+    assert not isinstance(old.backoff, BumpReflex)
+    assert _play(new, 8, 1 / 8, 8, 6) == _play(old, 8, 1 / 8, 8, 6)
+    assert new.backoff.escapes == 0
+    crowded = _play(new, 0, 4.0, 30, 6)
+    assert new.backoff.escapes > 0
+    assert crowded != _play(DistinctMotion(escape=False), 0, 4.0, 30, 6)

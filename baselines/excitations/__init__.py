@@ -16,7 +16,8 @@ Layout, one family a module (every name is importable from here):
 :mod:`~baselines.excitations.random_motion` (the paper's :class:`RandomMotion` and the
 :class:`BumpEscape` it shares with the swarm),
 :mod:`~baselines.excitations.swarm` (:class:`SwarmMotion`, :class:`SwarmDuty`),
-:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion` and its :class:`BackOff`),
+:mod:`~baselines.excitations.backoff` (the :class:`BackOff` out of bumps and its settings),
+:mod:`~baselines.excitations.distinct` (:class:`DistinctMotion`),
 :mod:`~baselines.excitations.gaps` (:class:`GapSeeking`, the crowd-aware one: it reads the
 beliefs and the picture to keep out of contact) and :mod:`~baselines.excitations.reflex`
 (:class:`BumpReflex`: the back-off of the candidate excitations, which escapes as ``gaps`` does

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baselines.excitations.backoff import DistinctSettings, check_command_box
 from baselines.excitations.base import Excitation
-from baselines.excitations.distinct import DistinctSettings, check_command_box
 from baselines.excitations.gaps import GapSettings
 from baselines.excitations.reflex import BumpReflex
 from baselines.steps import Step

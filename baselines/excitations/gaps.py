@@ -48,8 +48,8 @@ from anonloc_env.camera import Camera
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
 from anonloc_env.neighbours import pairs_within
+from baselines.excitations.backoff import BackOff, DistinctSettings, check_command_box
 from baselines.excitations.base import Excitation
-from baselines.excitations.distinct import BackOff, DistinctSettings, check_command_box
 from baselines.steps import BeliefView, Step
 
 

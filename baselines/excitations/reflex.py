@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from baselines.excitations.distinct import BackOff, DistinctSettings
+from baselines.excitations.backoff import BackOff, DistinctSettings
 from baselines.excitations.gaps import Escape
 from baselines.steps import Step
 
