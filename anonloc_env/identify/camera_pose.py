@@ -69,10 +69,14 @@ from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify.arrays import is_shared, shared
 from anonloc_env.landmarks import landmark_error
+from anonloc_env.neighbours import _LOOK_AT_ALL as LOOK_AT_ALL
 from anonloc_env.neighbours import pairs_within
 
 #: The transform at the set point: ``(a, b, tx, ty, g, h)``.
 HOME = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+#: How far (a share of the reach) the rows may move between rounds of matching before the
+#: pairs within reach of them are searched again (``_Near``).
+NEAR_MARGIN = 0.1
 #: Median absolute value of a standard Gaussian number.
 NORMAL_MAD = 0.6745
 #: Cauchy scale of the pair weights, in standard deviations of a pair's residual.
@@ -411,8 +415,9 @@ class Registration:
         pairs = (np.zeros(0, np.int64), np.zeros(0, np.int64))
         error = 0.0
         scales: list[float | None] = [None, None, None]
+        near = _Near(guess.target, self.prior.reach)
         for round_ in range(MATCH_ROUNDS):
-            matched = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess)
+            matched = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess, near)
             if round_ and _same(matched, pairs):  # the matches hold: the fit is done
                 break
             pairs = matched
@@ -482,11 +487,11 @@ class Registration:
         length = float(np.hypot(*shift))
         return shift * (limit / length) if length > limit else shift
 
-    def _match(self, moved: np.ndarray, guess: Guess) -> tuple[np.ndarray, np.ndarray]:
+    def _match(self, moved: np.ndarray, guess: Guess, near: _Near) -> tuple[np.ndarray, np.ndarray]:
         """Mutual nearest pairs ``(row, previous row)`` between the rows ``moved`` (through the
-        current transform) and the previous rows' predicted places, within the reach, nearest
-        in the guesses' spreads."""
-        i, j, _ = pairs_within(moved, guess.target, self.prior.reach)
+        current transform) and the previous rows' predicted places (``near``'s), within the
+        reach, nearest in the guesses' spreads."""
+        i, j = near.pairs(moved)
         if len(i) == 0:
             return i, j
         offset = _turned((guess.target[j] - moved[i]).reshape(-1), *guess.axis[j].T)
@@ -622,6 +627,32 @@ class Registration:
         if self._onward is not None:
             return self._onward
         return MODE_SHARE * self._step, MODE_SHARE * self._step, 0.5
+
+
+class _Near:
+    """The pairs of rows and ``target`` places within ``reach`` (``pairs_within``'s, the same
+    pairs in the same order) as the rows move from one round of matching to the next: where the
+    search would run in numpy, the pairs within ``reach`` and a margin of the rows' first places
+    are kept, and each round takes those within ``reach`` of the rows' places now, until the
+    rows have moved further than the margin (then searched again)."""
+
+    def __init__(self, target: np.ndarray, reach: float) -> None:
+        self.target, self.reach = target, reach
+        self.margin = NEAR_MARGIN * reach
+        self.base: np.ndarray | None = None
+        self.i = self.j = np.zeros(0, np.int64)
+
+    def pairs(self, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(row, place)`` pairs within the reach of the rows ``moved``."""
+        if len(moved) * len(self.target) <= LOOK_AT_ALL:  # the compiled search: as it is
+            i, j, _ = pairs_within(moved, self.target, self.reach)
+            return i, j
+        if self.base is None or float(np.abs(moved - self.base).max()) > self.margin:
+            self.base = moved.copy()
+            self.i, self.j, _ = pairs_within(moved, self.target, self.reach + 2.0 * self.margin)
+        i, j = self.i, self.j
+        keep = np.hypot(*(self.target[j] - moved[i]).T) <= self.reach
+        return i[keep], j[keep]
 
 
 def _none(count: int) -> np.ndarray:
@@ -774,10 +805,21 @@ def _same(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) ->
 
 
 def _best(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:
-    """``(size,)`` for each value of ``key``, the ``other`` of its lowest ``score`` (-1 if none)."""
-    order = np.lexsort((score, key))
-    first = np.ones(len(order), bool)
-    first[1:] = key[order][1:] != key[order][:-1]
+    """``(size,)`` for each value of ``key``, the ``other`` of its lowest ``score`` (-1 if none;
+    of equal scores, the first): each key's run after a stable sort, its least score, its first
+    pair that has it."""
     out = np.full(size, -1, np.int64)
-    out[key[order][first]] = other[order][first]
+    if len(key) == 0:
+        return out
+    order = np.argsort(key, kind="stable")
+    sorted_key, sorted_score = key[order], score[order]
+    start = np.ones(len(order), bool)
+    start[1:] = sorted_key[1:] != sorted_key[:-1]
+    run = np.cumsum(start) - 1
+    least = np.minimum.reduceat(sorted_score, np.flatnonzero(start))
+    hit = np.flatnonzero(sorted_score == least[run])
+    first = np.ones(len(hit), bool)
+    first[1:] = run[hit[1:]] != run[hit[:-1]]
+    pick = order[hit[first]]
+    out[key[pick]] = other[pick]
     return out
