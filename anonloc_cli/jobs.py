@@ -310,6 +310,7 @@ def _stop(pool: ProcessPoolExecutor) -> None:
     # them before shutdown() forgets them, end them, and only then let the executor wind down
     # (a worker stuck in native code must not keep the main process waiting at exit).
     processes = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
     for process in processes:
         if process.is_alive():
             process.terminate()
@@ -319,6 +320,12 @@ def _stop(pool: ProcessPoolExecutor) -> None:
             process.kill()
             process.join(timeout=2.0)
     pool.shutdown(wait=False, cancel_futures=True)
+    # Let the executor's manager thread finish with its workers gone (bounded): otherwise the
+    # interpreter's exit hook for executors can wake it through a pipe the thread is closing,
+    # and Python 3.11 prints "Bad file descriptor" with a traceback after "Interrupted" (seen in
+    # CI on the Ctrl-C test of anonloc eval).
+    if manager is not None:
+        manager.join(timeout=5.0)
 
 
 def _run_ray(
