@@ -14,10 +14,14 @@ import anonloc_env
 from anonloc_env.camera import Camera
 from anonloc_env.camera_motion import CameraMotion, pose_homography, set_point
 from anonloc_env.identify import Identifier, SensorModel
-from anonloc_env.identify.camera_pose import Anchors, Registration, apply, registration_prior
+from anonloc_env.identify.camera_pose import Registration, apply
 from anonloc_env.identify.out_of_view import claimed_elsewhere
+from anonloc_env.identify.pose_guess import Anchors
+from anonloc_env.identify.pose_prior import registration_prior
 from anonloc_env.identify.tracks import Tracks
-from anonloc_env.landmarks import border_landmarks
+from anonloc_env.landmarks import (
+    border_landmarks,
+)
 from anonloc_env.rewards import EnergyCost
 
 
