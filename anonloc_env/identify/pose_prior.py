@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 from anonloc_env.camera import survey
+from anonloc_env.camera_motion import left_tilt
 from anonloc_env.config import EnvConfig
 from anonloc_env.landmarks import landmark_error
 
@@ -65,10 +66,7 @@ def registration_prior(
         cam.principal_point if cam.principal_point is not None else (s * width / 2, s * height / 2)
     )
     interval = config.schedule.picture_interval
-    tilt = math.radians(cam.tilt_wobble_deg)
-    if cam.gimbal_bandwidth > 0.0:
-        tau_g = 1.0 / (2.0 * math.pi * cam.gimbal_bandwidth)
-        tilt *= math.sqrt(tau_g / (cam.wobble_time + tau_g))
+    tilt = left_tilt(config)
     shift = s * math.hypot(cam.drift, cam.height * tilt)
     shift_change = s * math.hypot(
         _ou_change(cam.drift, cam.drift_time, interval),
