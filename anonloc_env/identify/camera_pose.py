@@ -52,7 +52,7 @@ square disagreement over the rows, beyond what the second fit's larger error exp
 added to its variance. The identifier adds it to that
 picture's pixel noise (``Registration.pixel_var``), so that a picture registered badly (few
 robots in view, scattered displacements) weighs less; the sensor model's nominal figure
-(:func:`registered_pixel_noise`, what the agent's candidate predictions and the corrected
+(``pose_prior.registered_pixel_noise``, what the agent's candidate predictions and the corrected
 localizers read) is a bound from the config. With ground landmarks the detection source
 registers the picture itself (:mod:`anonloc_env.landmarks`) and this estimator is not used.
 """
@@ -139,7 +139,7 @@ class Registration:
     """Maps each picture into the set point's frame (see the module docstring).
 
     Args:
-        prior: the camera's and the robots' motion (:func:`registration_prior`).
+        prior: the camera's and the robots' motion (``pose_prior.registration_prior``).
         orientation: whether rows carry a measured heading (turned with the picture).
 
     Attributes:
