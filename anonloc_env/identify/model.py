@@ -13,12 +13,13 @@ from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
-from anonloc_env.identify.footprint import View, camera_view
+from anonloc_env.identify.footprint import View, camera_view, landmark_view
 from anonloc_env.identify.pose_prior import (
     RegistrationPrior,
     registered_pixel_noise,
     registration_prior,
 )
+from anonloc_env.landmarks import landmark_error
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -188,6 +189,15 @@ class SensorModel:
         return self.scale_range
 
 
+def _view(config: EnvConfig, registration: RegistrationPrior | None) -> View | None:
+    """A moving camera's view (its pictures' footprints), None for a fixed camera."""
+    if registration is not None:
+        return camera_view(config, registration.absolute[2])
+    if config.camera.landmarks and config.camera.moves:
+        return landmark_view(config, landmark_error(config, config.camera.pixel_noise))
+    return None
+
+
 @functools.lru_cache(maxsize=64)
 def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     """:meth:`~anonloc_env.identify.model.SensorModel.from_config`, computed."""
@@ -223,7 +233,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         # 1e-9: an arena sized for exactly FILTER_DENSITY robots per m^2, rounded.
         filter_position=clean and config.n_robots / area > FILTER_DENSITY * (1.0 + 1e-9),
         registration=registration,
-        view=None if registration is None else camera_view(config, registration.absolute[2]),
+        view=_view(config, registration),
         pooled_motion=registration is not None and config.camera.pooled_motion,
     )
 
