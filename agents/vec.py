@@ -180,8 +180,8 @@ class AnonLocVecEnv(VecEnv):
                 begun[k] = self._next_episode(k)
             parts.append(observation)
             infos.extend(copy_infos)
-        for k, first in zip(begun, self._started(begun), strict=True):
-            parts[k] = first
+        for k, started in zip(begun, self._started(begun), strict=True):
+            parts[k] = started
         self._actions = None
         return _stack(parts), rewards, dones, infos
 
