@@ -117,9 +117,9 @@ class Identifier:
             rows: ``(n, 3)`` detections ``(u, v, theta)`` of the new picture (no padding).
             interval: each robot's motion since the previous picture; ignored for the first one.
             footprint: ``(4, 2)`` the picture's field of view in the frame of ``rows``, where it
-                comes with the picture (a moving camera's picture rectified by its landmarks,
-                ``anonloc_env.landmarks.footprint``); ignored without the model's ``view`` or
-                with a registration (which gives its own).
+                comes with the picture (a moving camera's picture rectified by its landmarks:
+                the observation key ``footprint``, ``Picture.footprint``); ignored without the
+                model's ``view`` or with a registration (which gives its own).
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
         if self.registration is not None:  # anchored by the robots it is sure of, if pooled
