@@ -100,7 +100,7 @@ class SensorModel:
             per m^2, where pictures have no misses and no false positives.
         crowd_noise: the detections' noise is taken this many times ``pixel_noise`` (>= 1): a
             model-mismatch term for what the model of a crowd misses (see
-            :data:`anonloc_env.identify.contact.CROWD_NOISE`). 1 (the default): ``pixel_noise``
+            ``anonloc_env.identify.contact.CROWD_NOISE``). 1 (the default): ``pixel_noise``
             as stated. ``from_config`` sets ``CROWD_NOISE`` where it sets ``filter_position``
             and the camera is fixed.
         registration: the camera's motion when it moves and no landmarks register its pictures
