@@ -20,7 +20,10 @@ elsewhere it is its base bit for bit. ``dense K`` (ninth round) is the same trad
 whole arena instead: the agent sees only the ``density`` crowd feature (rows per m² of the
 picture) and ``entropy_after*dense`` is ``-K``, ``energy*dense`` ``-K / 2``
 (:data:`agents.linear_terms.DENSE_TERMS`: 0 below ``agents.linear_terms.DENSE`` rows per m²,
-so that in every open-space condition it is its base bit for bit). The variants are saved as
+so that in every open-space condition it is its base bit for bit). ``missing E`` (ninth round)
+adds, on top of ``dense 100``, ``energy*missing`` ``-E``: a stronger preference for cheap
+candidates on a camera that misses robots (``missing`` is ``1 - p_detect``, 0 on a clean camera,
+:data:`agents.linear_terms.MISSING_TERMS`). The variants are saved as
 ordinary linear agents (``agents.linear_agent``).
 
 Usage::
@@ -29,8 +32,9 @@ Usage::
 
 The seventh round's variants were made from the agent bundled until then (``--base``: ``git show
 ec78ad0:agents/data/agent.zip > base.zip``); ``size-1.0`` is the agent bundled since. The
-eighth round's ``crowded`` and the ninth round's ``dense`` variants were made from that one
-(``--base bundled``).
+eighth round's ``crowded`` and the ninth round's ``dense`` and ``missing`` variants were made
+from that one (``--base base.zip`` with ``git show cc24abb:agents/data/agent.zip > base.zip``);
+``missing-20`` is the agent bundled since the ninth round.
 """
 
 from __future__ import annotations
@@ -41,10 +45,16 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.candidate_features import Feature
+from agents.candidate_features import CONTEXT_SPEC, Feature
 from agents.crowd_features import CROWD_CONTEXT_SPEC
 from agents.linear_agent import linear_weights, save_linear_agent
-from agents.linear_terms import CROWDED_TERMS, DENSE_TERMS, LINEAR_TERMS, SIZE_TERMS
+from agents.linear_terms import (
+    CROWDED_TERMS,
+    DENSE_TERMS,
+    LINEAR_TERMS,
+    MISSING_TERMS,
+    SIZE_TERMS,
+)
 from agents.policy import agent_file
 from agents.spec import saved_spec
 
@@ -65,6 +75,8 @@ CROWDED_VARIANTS = {"crowded-30": 30.0, "crowded-100": 100.0}
 CROWDED_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + CROWDED_TERMS
 #: The dense variants: name -> K.
 DENSE_VARIANTS = {"dense-10": 10.0, "dense-30": 30.0, "dense-100": 100.0, "dense-300": 300.0}
+#: The missing variants: name -> E.
+MISSING_VARIANTS = {"missing-10": 10.0, "missing-20": 20.0, "missing-40": 40.0}
 #: The terms of a dense variant.
 DENSE_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + DENSE_TERMS
 
@@ -92,6 +104,14 @@ def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: b
     return np.array([out[t.name] for t in LINEAR_TERMS + SIZE_TERMS])
 
 
+def missing_weights(base: dict[str, float], e: float, terms: tuple[Feature, ...]) -> np.ndarray:
+    """The weights over ``terms`` of ``base`` (0 for a term it lacks) with ``energy*missing``
+    ``-e``."""
+    out = {t.name: base.get(t.name, 0.0) for t in terms}
+    out["energy*missing"] = -e
+    return np.array([out[t.name] for t in terms])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="folder for the variants' agent.zip files")
@@ -100,7 +120,7 @@ def main() -> None:
     bundled = linear_weights(args.base)
     spec = saved_spec(agent_file(args.base))
     assert spec is not None  # the bundled agent has a spec
-    spec = dataclasses.replace(spec, terms=LINEAR_TERMS + SIZE_TERMS)
+    spec = dataclasses.replace(spec, context_features=CONTEXT_SPEC, terms=LINEAR_TERMS + SIZE_TERMS)
     args.out.mkdir(parents=True, exist_ok=True)
     for name, (beta, duty, flat) in VARIANTS.items():
         path = save_linear_agent(
@@ -114,11 +134,24 @@ def main() -> None:
         print(f"{name}: {path}")
     density = next(f for f in CROWD_CONTEXT_SPEC if f.name == "density")
     dense = dataclasses.replace(
-        spec, context_features=(*spec.context_features, density), terms=DENSE_VARIANT_TERMS
+        spec, context_features=(*CONTEXT_SPEC, density), terms=DENSE_VARIANT_TERMS
     )
     for name, k in DENSE_VARIANTS.items():
         weights = gated_weights(bundled, k, "dense", DENSE_VARIANT_TERMS)
         path = save_linear_agent(weights, args.out / f"{name}.zip", dense)
+        print(f"{name}: {path}")
+    # The missing variants start from dense-100 (the agent bundled since the ninth round).
+    dense_100 = dict(
+        zip(
+            (t.name for t in dense.terms),
+            gated_weights(bundled, 100.0, "dense", dense.terms),
+            strict=True,
+        )
+    )
+    missing = dataclasses.replace(dense, terms=DENSE_VARIANT_TERMS + MISSING_TERMS)
+    for name, e in MISSING_VARIANTS.items():
+        weights = missing_weights(dense_100, e, missing.terms)
+        path = save_linear_agent(weights, args.out / f"{name}.zip", missing)
         print(f"{name}: {path}")
 
 
