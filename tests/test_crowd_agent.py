@@ -29,6 +29,7 @@ from agents.linear_terms import (
     DENSE_TERMS,
     KNOWN_TERMS,
     LINEAR_TERMS,
+    MISSING_TERMS,
     TERM_BASES,
     linear_terms,
 )
@@ -183,3 +184,18 @@ def test_a_crowd_gate_opens_only_at_its_threshold_in_numpy_and_torch(
         scorer.weights.copy_(torch.as_tensor(weights))
         logits, _ = scorer(torch.as_tensor(candidates).float(), torch.as_tensor(context).float())
     np.testing.assert_allclose(logits.numpy(), out @ weights, rtol=1e-5, atol=1e-4)
+
+
+def test_the_missing_gate_is_the_share_of_robots_a_picture_misses() -> None:
+    """``base*missing`` is the base times ``1 - p_detect``: 0 on a clean camera, so that an agent
+    with these terms plays its base there (the bundled agent, ninth round)."""
+    terms = tuple(KNOWN_TERMS[f"{b.name}*missing"] for b in TERM_BASES)
+    assert terms == MISSING_TERMS
+    candidates = np.random.default_rng(3).normal(size=(3, 8, len(CROWD.candidate_features)))
+    context = np.zeros((3, len(CROWD.context_features)))
+    context[:, CROWD.columns()[1]["p_detect"]] = [1.0, 0.9, 0.75]
+    out = linear_terms(candidates, context, np.stack, terms, CROWD.columns())
+    energy = candidates[..., CROWD.columns()[0]["energy"]]
+    column = [t.name for t in terms].index("energy*missing")
+    np.testing.assert_array_equal(out[0, :, column], 0.0)
+    np.testing.assert_allclose(out[1:, :, column], energy[1:] * np.array([[0.1], [0.25]]))
