@@ -78,14 +78,33 @@ class Crew:
     def reset(self, seed: int | None) -> dict[str, np.ndarray]:
         """Start an episode: the env is reset with ``seed``; the robots' own random streams
         (the swarm's shared stream included) are drawn from the env's generator."""
+        job = self.start(seed)
+        return self.started(None if job is None else job.entropy())
+
+    def start(self, seed: int | None) -> ScoringJob | None:
+        """``reset`` with the candidates of the first picture prepared but not scored: the
+        returned job's expected entropy goes to ``started`` (``agents.vec.AnonLocVecEnv``
+        scores the copies it resets together); None when nothing is to be scored."""
         observations, infos = self.env.reset(seed=seed)
         entropy = self.env.rng.integers(0, 2**63, size=2)
         if isinstance(self.team.excitation, SwarmDuty):  # the swarm's stream, of this episode
             self.team.excitation.shared.common_seed = int(entropy[0])
         self.team.reset(np.random.SeedSequence(int(entropy[1])).spawn(self.n))
-        step = self.team.observe([observations[a] for a in self.agents])
+        self.chooser.defer = True
+        try:
+            step = self.team.observe([observations[a] for a in self.agents])
+        finally:
+            self.chooser.defer = False
         self._step = step
         self._belief_true = true_belief(self.localizer.belief, true_rows(infos, self.agents))
+        return self.chooser.job
+
+    def started(self, entropy: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The first observation of the episode begun by ``start``, its picture scored with
+        ``entropy`` (the expected entropy of the job ``start`` returned; None when it returned
+        None)."""
+        if self.chooser.waiting:
+            self.chooser.scored(entropy)
         return self.chooser.observation
 
     def step(self, actions: np.ndarray) -> StepResult:

@@ -43,7 +43,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.env import AnonLocEnv
 from anonloc_env.memory import keep_freed_memory
 from anonloc_env.rewards import EnergyCost
-from baselines.active import entropies_together
+from baselines.active import ScoringJob, entropies_together
 
 
 class AnonLocVecEnv(VecEnv):
@@ -117,7 +117,8 @@ class AnonLocVecEnv(VecEnv):
         return [s for s, crew in pairs for _ in range(crew.n)]
 
     def reset(self) -> dict[str, np.ndarray]:
-        parts = [crew.reset(seed) for crew, seed in zip(self.crews, self._copy_seeds, strict=True)]
+        seeds = zip(self.crews, self._copy_seeds, strict=True)
+        parts = self._started({k: crew.start(seed) for k, (crew, seed) in enumerate(seeds)})
         self._copy_seeds = [None] * self.n_envs
         self._reset_seeds()
         self._returns[:] = 0.0
@@ -140,6 +141,7 @@ class AnonLocVecEnv(VecEnv):
     def step_wait(self) -> VecEnvStepReturn:
         assert self._actions is not None, "step_async() first"
         parts: list[dict[str, np.ndarray]] = []
+        begun: dict[int, ScoringJob | None] = {}  # copies that start a new episode
         rewards = np.empty(self.num_envs, np.float32)
         dones = np.zeros(self.num_envs, bool)
         infos: list[dict[str, Any]] = []
@@ -175,22 +177,34 @@ class AnonLocVecEnv(VecEnv):
                     }
                 self._returns[slots] = 0.0
                 self._lengths[slots] = 0
-                observation = self._next_episode(k)
+                begun[k] = self._next_episode(k)
             parts.append(observation)
             infos.extend(copy_infos)
+        for k, started in zip(begun, self._started(begun), strict=True):
+            parts[k] = started
         self._actions = None
         return _stack(parts), rewards, dones, infos
 
-    def _next_episode(self, k: int) -> dict[str, np.ndarray]:
-        """Copy ``k``'s next episode: the same scenario, or a new one drawn (``redraw``)."""
+    def _next_episode(self, k: int) -> ScoringJob | None:
+        """Start copy ``k``'s next episode (``Crew.start``): the same scenario, or a new one
+        drawn (``redraw``)."""
         crew = self.crews[k]
         if self._redraw is None:
-            return crew.reset(None)
+            return crew.start(None)
         rng = np.random.default_rng(crew.env.rng.integers(0, 2**63))
         ranges = dataclasses.replace(self._redraw, robots=(crew.n,))
         crew.env.close()
         self.crews[k] = self._crew(draw_scenario(rng, ranges))
-        return self.crews[k].reset(int(rng.integers(0, 2**63)))
+        return self.crews[k].start(int(rng.integers(0, 2**63)))
+
+    def _started(self, jobs: dict[int, ScoringJob | None]) -> list[dict[str, np.ndarray]]:
+        """The first observations of the copies ``Crew.start`` began (copy -> its job), their
+        first pictures scored together in one call (the same bits as one by one)."""
+        entropies = iter(entropies_together([job for job in jobs.values() if job is not None]))
+        return [
+            self.crews[k].started(None if job is None else next(entropies))
+            for k, job in jobs.items()
+        ]
 
     def close(self) -> None:
         for crew in self.crews:

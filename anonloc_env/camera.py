@@ -35,7 +35,7 @@ import numpy as np
 from anonloc_env.camera_motion import pose_homography
 from anonloc_env.config import EnvConfig
 from anonloc_env.geometry import wrap_angle
-from anonloc_env.landmarks import fit_homography, landmark_rows, rectify
+from anonloc_env.landmarks import fit_pose, landmark_rows, rectify
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,13 +290,10 @@ def rectified(
     estimated: np.ndarray | None = None,
 ) -> Picture:
     """``picture`` with its rows mapped into the set point's frame through the homography
-    ``estimated`` or, if ``None``, the one the landmarks ``ids`` seen at ``uv`` give (the set point
-    itself if fewer than 2 are seen)."""
+    ``estimated`` or, if ``None``, the camera's pose the landmarks ``ids`` seen at ``uv`` give
+    (``landmarks.fit_pose``; the set point if none is seen)."""
     if estimated is None:
-        world = np.asarray(config.camera.landmarks, dtype=np.float64).reshape(-1, 2)[ids]
-        estimated = fit_homography(world, uv)
-    if estimated is None:
-        estimated = set_point
+        estimated = fit_pose(config, ids, uv)
     rows = rectify(picture.detections, estimated, set_point)
     rows[:, 2] = wrap_angle(rows[:, 2]) if picture.has_orientation else 0.0
     return dataclasses.replace(

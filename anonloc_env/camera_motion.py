@@ -56,6 +56,28 @@ def set_point(config: EnvConfig) -> np.ndarray:
     )
 
 
+def left_tilt(config: EnvConfig) -> float:
+    """Standard deviation (rad) of the camera's pitch and roll about the set point, each: the
+    drone's ``tilt_wobble_deg`` less what the gimbal corrects,
+    ``tilt_wobble * sqrt(tau_g / (wobble_time + tau_g))`` (all of it without a gimbal)."""
+    cam = config.camera
+    tilt = math.radians(cam.tilt_wobble_deg)
+    if cam.gimbal_bandwidth > 0.0:
+        tau_g = 1.0 / (2.0 * math.pi * cam.gimbal_bandwidth)
+        tilt *= math.sqrt(tau_g / (cam.wobble_time + tau_g))
+    return tilt
+
+
+def pose_sigma(config: EnvConfig) -> np.ndarray:
+    """``(6,)`` the standard deviations of the pose ``(x, y, z, yaw, pitch, roll)`` about the
+    set point under the hover's stationary law (m, rad): what is known of a picture's pose
+    before it is seen (all 0 for a fixed camera)."""
+    cam = config.camera
+    yaw = math.radians(cam.yaw_wobble_deg)
+    tilt = left_tilt(config)
+    return np.array([cam.drift, cam.drift, cam.height_wobble, yaw, tilt, tilt])
+
+
 def _rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
     """``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
     cz, sz = math.cos(yaw), math.sin(yaw)

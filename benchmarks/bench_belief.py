@@ -108,6 +108,8 @@ import baselines.policies, anonloc_env.world
 env = importlib.import_module("anonloc_env.env")
 timed(agents.vec.AnonLocVecEnv, "step_wait", "the VecEnv's step")
 timed(agents.vec.AnonLocVecEnv, "_next_episode", "the next episode of a copy (redraw, reset)")
+if hasattr(agents.vec.AnonLocVecEnv, "_started"):  # since the copies' first pictures are batched
+    timed(agents.vec.AnonLocVecEnv, "_started", "the first pictures' scores (all new episodes)")
 timed(env.AnonLocEnv, "step_arrays", "the env's control steps (step_arrays)")
 timed(anonloc_env.world.World, "step", "  of which the physics (World.step)")
 timed(baselines.localizers.BayesLocalizer, "on_picture", "the identifier's update")

@@ -120,7 +120,8 @@ def test_the_vec_env_scores_its_copies_together_with_the_bits_of_one_by_one(
 ) -> None:
     """A seeded run of the belief VecEnv (clutter and misses; or copies of different scenarios,
     redrawn at every episode's end) equals the same run with every copy scored by its own
-    call, observations, rewards, ends and teachers to the bit."""
+    call, observations, rewards, ends and teachers to the bit; the first pictures of the copies
+    that start an episode together are scored together too."""
     pytest.importorskip("stable_baselines3")
     import agents.vec
     from agents.vec import AnonLocVecEnv
@@ -147,6 +148,9 @@ def test_the_vec_env_scores_its_copies_together_with_the_bits_of_one_by_one(
     together = _rollout(build(), 12)
     sizes = {crew.n for crew in build().crews}
     assert max(stacked) > max(sizes)  # robots of several copies did go through one call
+    if not mixed:  # every call, the first pictures of new episodes included, stacks all copies
+        assert set(stacked) == {3 * 8}
+        assert len(stacked) > 12 + 1  # the resets' calls came too
     monkeypatch.setattr(agents.vec, "entropies_together", lambda jobs: [j.entropy() for j in jobs])
     one_by_one = _rollout(build(), 12)
     for a, b in zip(together, one_by_one, strict=True):

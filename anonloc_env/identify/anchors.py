@@ -21,9 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from anonloc_env.identify.arrays import group_starts
-from anonloc_env.identify.camera_pose import Anchors
 from anonloc_env.identify.gate import Gate
 from anonloc_env.identify.model import SensorModel
+from anonloc_env.identify.pose_guess import Anchors
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.odometry import Interval
 

@@ -12,13 +12,13 @@ import numpy as np
 from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
-from anonloc_env.identify.camera_pose import (
+from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
+from anonloc_env.identify.footprint import View, camera_view
+from anonloc_env.identify.pose_prior import (
     RegistrationPrior,
     registered_pixel_noise,
     registration_prior,
 )
-from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
-from anonloc_env.identify.footprint import View, camera_view
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
