@@ -128,6 +128,7 @@ def parse_changes(texts: Sequence[str]) -> dict[str, tuple[str, float]]:
         "crowd_jam",
         "contact_break",
         "filter_position",
+        "crowd_noise",
     }
     out: dict[str, tuple[str, float]] = {}
     for text in texts:
@@ -273,10 +274,10 @@ def replay(model: SensorModel, result: EpisodeResult) -> list[tuple[np.ndarray, 
 
 
 def without_contact_model(model: SensorModel) -> SensorModel:
-    """``model`` without the crowd's contact model and filtered positions (issue 23): what the
-    identifier was."""
+    """``model`` without the crowd's contact model, filtered positions and noise floor (issue
+    23): what the identifier was."""
     return dataclasses.replace(
-        model, crowd_push_share=None, contact_break=0.0, filter_position=False
+        model, crowd_push_share=None, contact_break=0.0, filter_position=False, crowd_noise=1.0
     )
 
 

@@ -98,12 +98,13 @@ class Identifier:
         return self._pushed_run
 
     def _pixel_var(self, rows: np.ndarray) -> float:
-        """The pixel variance, floored: float32 observations limit what "noise free" can mean."""
+        """The pixel variance (times ``crowd_noise`` squared in a crowd), floored: float32
+        observations limit what "noise free" can mean."""
         extent = float(np.abs(rows[:, :2]).max()) if len(rows) else 1.0
         floor = 1e-4 + 1e-6 * extent
         if self.registration is not None:  # this picture's own registration error in it
-            return self.registration.pixel_var + floor**2
-        return self.model.pixel_noise**2 + floor**2
+            return self.registration.pixel_var * self.model.crowd_noise**2 + floor**2
+        return (self.model.pixel_noise * self.model.crowd_noise) ** 2 + floor**2
 
     def update(self, rows: np.ndarray, interval: Interval | None = None) -> None:
         """Take in a picture.

@@ -12,7 +12,13 @@ import numpy as np
 from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
-from anonloc_env.identify.contact import CROWD_PUSH_SHARE, CROWD_PUSH_TAIL, JAM, break_length
+from anonloc_env.identify.contact import (
+    CROWD_NOISE,
+    CROWD_PUSH_SHARE,
+    CROWD_PUSH_TAIL,
+    JAM,
+    break_length,
+)
 from anonloc_env.identify.footprint import View, camera_view
 from anonloc_env.identify.pose_prior import (
     RegistrationPrior,
@@ -92,6 +98,11 @@ class SensorModel:
             consecutive displacements share a detection's noise. ``False`` (the default): the
             detection. ``from_config`` sets it in a crowd: above ``FILTER_DENSITY`` robots
             per m^2, where pictures have no misses and no false positives.
+        crowd_noise: the detections' noise is taken this many times ``pixel_noise`` (>= 1): a
+            model-mismatch term for what the model of a crowd misses (see
+            ``anonloc_env.identify.contact.CROWD_NOISE``). 1 (the default): ``pixel_noise``
+            as stated. ``from_config`` sets ``CROWD_NOISE`` where it sets ``filter_position``
+            and the camera is fixed.
         registration: the camera's motion when it moves and no landmarks register its pictures
             (:mod:`anonloc_env.identify.camera_pose`): the identifier then maps every picture into
             the set point's frame first, and ``from_config`` adds the registration's error to
@@ -127,6 +138,7 @@ class SensorModel:
     crowd_jam: int = JAM
     contact_break: float = 0.0
     filter_position: bool = False
+    crowd_noise: float = 1.0
     registration: RegistrationPrior | None = None
     view: View | None = None
     pooled_motion: bool = False
@@ -162,6 +174,7 @@ class SensorModel:
         check_number("contact_break", self.contact_break, 0.0)
         if not isinstance(self.filter_position, bool | np.bool_):
             raise ValueError(f"filter_position must be a bool, got {self.filter_position!r}")
+        check_number("crowd_noise", self.crowd_noise, 1.0)
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
@@ -198,6 +211,8 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     clean = cam.p_miss == 0.0 and cam.false_positives == 0.0
     area = config.arena_size[0] * config.arena_size[1]
     registration = registration_prior(config, cam.pixel_noise)
+    # 1e-9: an arena sized for exactly FILTER_DENSITY robots per m^2, rounded.
+    crowd = clean and config.n_robots / area > FILTER_DENSITY * (1.0 + 1e-9)
     return SensorModel(
         scale=mean if scale_known else None,
         scale_range=(0.5 * mean, 2.0 * mean),
@@ -220,8 +235,8 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         crowd_push_share=CROWD_PUSH_SHARE if clean else None,
         crowd_push_tail=CROWD_PUSH_TAIL if clean else 1.0,
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
-        # 1e-9: an arena sized for exactly FILTER_DENSITY robots per m^2, rounded.
-        filter_position=clean and config.n_robots / area > FILTER_DENSITY * (1.0 + 1e-9),
+        filter_position=crowd,
+        crowd_noise=CROWD_NOISE if crowd and registration is None else 1.0,
         registration=registration,
         view=None if registration is None else camera_view(config, registration.absolute[2]),
         pooled_motion=registration is not None and config.camera.pooled_motion,
