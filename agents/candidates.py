@@ -70,7 +70,9 @@ class CandidateChooser(GreedyIdentification):
         found = features or (CANDIDATE_SPEC, CONTEXT_SPEC)
         check_features(*found)
         self.names = (tuple(f.name for f in found[0]), tuple(f.name for f in found[1]))
-        self.crowd = len(found[0]) > len(CANDIDATE_SPEC) or len(found[1]) > len(CONTEXT_SPEC)
+        self.crowd = frozenset(self.names[0][len(CANDIDATE_SPEC) :]) | frozenset(
+            self.names[1][len(CONTEXT_SPEC) :]
+        )  # the crowd features named (agents.crowd_features)
         self.cset: CandidateSet | None = None
         self.observation = empty_observation(0, candidates, (len(found[0]), len(found[1])))
         self.decided = False
@@ -187,6 +189,7 @@ class CandidateChooser(GreedyIdentification):
             scale,
             config.robot.size * scale,
             self._view[1],
+            self.crowd,
         )
 
     def on_scored(self) -> None:

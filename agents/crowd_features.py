@@ -15,7 +15,9 @@ the picture's rows, the rows, and its identifier's heaviest track (its believed 
   sizes, over ``look`` (at most 1), weighed by the top belief, plus 1 times the rest (what is
   unknown counts as free);
 * ``crowding`` ``(R,)``: the sum of size over distance over the other rows within ``look``
-  sizes of the top row, weighed by the top belief.
+  sizes of the top row, weighed by the top belief;
+* ``density`` ``(R,)``: the rows of the picture per square metre of the field of view, the same
+  for every robot: how crowded the whole arena is, also where no robot is near (ninth round).
 
 They are not in the layout of the bundled agent (``agents.candidate_features.LAYOUT`` 2, which a
 saved agent is checked against): an agent trained with them names them in its features.
@@ -44,7 +46,10 @@ CROWD_CONTEXT_SPEC = (
     Feature(
         "crowding", "sum of size / distance over the rows within look sizes of the believed self"
     ),
+    Feature("density", "rows in the picture per square metre of the field of view"),
 )
+#: Every crowd feature's name.
+CROWD_FEATURES = frozenset(f.name for f in CROWD_CANDIDATE_SPEC + CROWD_CONTEXT_SPEC)
 #: Points along a candidate's path.
 PATH_POINTS = 5
 #: Headings tried where the robot does not know its own.
@@ -142,6 +147,17 @@ def contact_risk(
     return top[:, None] * risk + 0.5 * (1.0 - top[:, None])
 
 
+def density(count: int, scale: float, view: tuple[float, float, float, float]) -> float:
+    """Rows per square metre: ``count`` rows over the field of view ``view`` (image units) at
+    ``scale`` image units per metre.
+
+    >>> density(20, 100.0, (0.0, 0.0, 200.0, 250.0))
+    4.0
+    """
+    u0, v0, u1, v1 = view
+    return count * scale * scale / max((u1 - u0) * (v1 - v0), 1e-12)
+
+
 def crowd_columns(
     belief: np.ndarray,
     rows: np.ndarray,
@@ -151,13 +167,15 @@ def crowd_columns(
     scale: float,
     size: float,
     view: tuple[float, float, float, float],
+    names: frozenset[str] = CROWD_FEATURES,
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """The crowd features by name: ``({"contact_risk": (R, C)}, {"free_space": (R,),
-    "crowding": (R,)})`` (arguments as :func:`contact_risk`'s; ``commands`` None: nothing was
-    scored, so no candidate feature)."""
-    free, crowd = free_space(belief, rows, size)
-    context = {"free_space": free, "crowding": crowd}
-    if commands is None:
+    """The crowd features named in ``names`` (default: all), by name: ``({"contact_risk": (R,
+    C)}, {"free_space": (R,), "crowding": (R,), "density": (R,)})`` (arguments as
+    :func:`contact_risk`'s; ``commands`` None: nothing was scored, so no candidate feature)."""
+    context = {"density": np.full(len(belief), density(len(rows), scale, view))}
+    if names & {"free_space", "crowding"}:
+        context["free_space"], context["crowding"] = free_space(belief, rows, size)
+    if commands is None or "contact_risk" not in names:
         return {}, context
     risk = contact_risk(belief, rows, heading, commands, interval, scale, size, view)
     return {"contact_risk": risk}, context

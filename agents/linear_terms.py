@@ -10,7 +10,10 @@ An agent that sees the crowd features (``agents.spec.AgentSpec.with_crowd_featur
 ``size`` has :data:`SIZE_TERMS` more: every base times ``rows_free``, the number of robots in
 the picture on a log scale, in free motion; an agent with the crowd features may have
 :data:`CROWDED_TERMS`, every base times ``crowded``, 1 only where ``crowding`` reaches
-:data:`CROWDED`. Terms are named
+:data:`CROWDED`; an agent that sees the arena's ``density`` may have :data:`DENSE_TERMS`,
+every base times ``dense``, 1 only where the picture holds at least :data:`DENSE` rows per
+square metre; any agent may have :data:`MISSING_TERMS`, every base times ``missing``, the share
+of robots a picture misses (0 on a clean camera). Terms are named
 ``base*gate`` and computed by name from the columns the spec gives each feature.
 
 With all weights zero the scorer is ``uniform`` exactly (a fair draw among the candidates), so a
@@ -72,6 +75,15 @@ CROWDED = 2.0
 #: A gate that is 1 only in a crowd (``crowding`` at least :data:`CROWDED`), where the product
 #: with ``crowding`` of :data:`CROWD_TERMS` also acts in open space.
 CROWDED_GATE = Feature("crowded", f"1 where the crowding around the believed self is >= {CROWDED}")
+#: The ``density`` (rows per m² of the field of view, ``agents.crowd_features``) at which the
+#: ``dense`` gate opens: between 2 per m², where ``greedy``'s trade cost the bundled agent
+#: pictures on selection seeds (N = 30: 4.92 against 4.46), and 3 per m², where it saved them
+#: (6.79 against 7.42); far above the evaluation's open space (1 per m², with clutter at most
+#: 1.05), below its crowds (4 per m²) (``docs/agents.md``, *The arena's density*).
+DENSE = 2.5
+#: A gate that is 1 in a dense arena (``density`` at least :data:`DENSE`) for every robot, also
+#: where none is near: what the ``crowded`` gate, read around each robot, missed (ninth round).
+DENSE_GATE = Feature("dense", f"1 where the picture holds >= {DENSE} rows per m² of its view")
 
 
 def _terms(bases: tuple[Feature, ...], gates: tuple[Feature, ...]) -> tuple[Feature, ...]:
@@ -97,8 +109,19 @@ SIZE_TERMS = _terms(TERM_BASES, (SIZE_GATE,))
 #: The terms an agent with the crowd features may have to act only in a crowd: every base times
 #: the ``crowded`` gate.
 CROWDED_TERMS = _terms(TERM_BASES, (CROWDED_GATE,))
+#: The terms an agent that sees the arena's ``density`` may have to act only in a dense arena:
+#: every base times the ``dense`` gate.
+DENSE_TERMS = _terms(TERM_BASES, (DENSE_GATE,))
+#: A gate that grows with the share of robots a picture misses (``1 - p_detect``), 0 on a clean
+#: camera, so that terms behind it leave every clean condition bit for bit (ninth round).
+MISSING_GATE = Feature("missing", "1 - p_detect, the share of robots a picture misses")
+#: The terms any agent may have to act on a camera that misses robots: every base times the
+#: ``missing`` gate.
+MISSING_TERMS = _terms(TERM_BASES, (MISSING_GATE,))
 #: Every term this anonloc can compute, by name.
-KNOWN_TERMS = {t.name: t for t in CROWD_TERMS + SIZE_TERMS + CROWDED_TERMS}
+KNOWN_TERMS = {
+    t.name: t for t in CROWD_TERMS + SIZE_TERMS + CROWDED_TERMS + DENSE_TERMS + MISSING_TERMS
+}
 
 
 def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
@@ -120,6 +143,10 @@ def _gate(name: str, context: Any, column: Mapping[str, int]) -> Any:
         return rows * (1.0 - context[:, None, column["on_duty"]])
     if name == "crowded":
         return (context[:, None, column["crowding"]] >= CROWDED) * 1.0
+    if name == "missing":
+        return 1.0 - context[:, None, column["p_detect"]]
+    if name == "dense":
+        return (context[:, None, column["density"]] >= DENSE) * 1.0
     return context[:, None, column[name]]
 
 

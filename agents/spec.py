@@ -187,8 +187,8 @@ class AgentSpec:
 
     def with_crowd_features(self) -> AgentSpec:
         """This spec seeing the crowd features too (``agents.crowd_features``: each candidate's
-        ``contact_risk``, the context's ``free_space`` and ``crowding``), and, for the linear
-        scorer, their terms (:data:`agents.linear_terms.CROWD_TERMS`)."""
+        ``contact_risk``, the context's ``free_space``, ``crowding`` and ``density``), and, for
+        the linear scorer, their terms (:data:`agents.linear_terms.CROWD_TERMS`)."""
         return dataclasses.replace(
             self,
             candidate_features=CANDIDATE_SPEC + CROWD_CANDIDATE_SPEC,

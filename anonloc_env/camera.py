@@ -56,6 +56,9 @@ class Picture:
         homography: ``(3, 3)`` the ground-to-image homography the landmarks gave, through which
             ``detections`` were rectified into the set point's frame (see
             :mod:`anonloc_env.landmarks`), or ``None`` without landmarks.
+        footprint: ``(4, 2)`` the field of view's corners in the frame of ``detections`` (the
+            set point's, through ``homography``), round it, or ``None`` without landmarks:
+            where a moving camera's picture covers the arena, as its landmarks tell.
     """
 
     detections: np.ndarray
@@ -65,6 +68,7 @@ class Picture:
     has_orientation: bool
     landmarks: np.ndarray | None = None
     homography: np.ndarray | None = None
+    footprint: np.ndarray | None = None
 
     @property
     def n_rows(self) -> int:
@@ -296,11 +300,15 @@ def rectified(
         estimated = fit_pose(config, ids, uv)
     rows = rectify(picture.detections, estimated, set_point)
     rows[:, 2] = wrap_angle(rows[:, 2]) if picture.has_orientation else 0.0
+    u_min, v_min, u_max, v_max = survey(config).field_of_view
+    corners = np.array([[u_min, v_min, 0.0], [u_max, v_min, 0.0], [u_max, v_max, 0.0]])
+    corners = np.concatenate([corners, [[u_min, v_max, 0.0]]])
     return dataclasses.replace(
         picture,
         detections=rows,
         landmarks=np.column_stack([ids, uv]) if len(ids) else np.zeros((0, 3)),
         homography=estimated,
+        footprint=rectify(corners, estimated, set_point)[:, :2],
     )
 
 

@@ -23,6 +23,12 @@ Keys (D = max detections, K = history length):
 | `history_mask` | `(K, D)` | their masks (all 0 for pictures not taken yet) |
 | `history_odometry` | `(K, 3)` | own motion from history picture k to the next newer one |
 | `history_interval` | `(K,)` | time from history picture k to the next newer one (s) |
+| `footprint` | `(4, 2)` | moving camera with landmarks only: the view's corners, as `detections` |
+
+`footprint` (only where the camera moves and ground landmarks rectify its pictures) is the newest
+picture's field of view in the frame of `detections`: its corners, round it, through the
+landmarks' fit (zeros before a picture). The robots see the landmarks in the picture; it tells
+where the arena was in view.
 
 Odometry is in the robot's own frame at the start of its interval: `odometry` in the frame at the
 newest picture, `odometry_between` in the frame at the previous picture, `history_odometry[k]` in
@@ -60,12 +66,21 @@ def observation_space(config: EnvConfig, capacity: int) -> spaces.Dict:
         "odometry_between": spaces.Box(-inf, inf, (3,), np.float32),
         "interval": spaces.Box(0.0, inf, (1,), np.float32),
     }
+    if has_footprint(config):
+        entries["footprint"] = spaces.Box(-inf, inf, (4, 2), np.float32)
     if k > 0:
         entries["history_detections"] = spaces.Box(-inf, inf, (k, d, 3), np.float32)
         entries["history_mask"] = spaces.Box(0.0, 1.0, (k, d), np.float32)
         entries["history_odometry"] = spaces.Box(-inf, inf, (k, 3), np.float32)
         entries["history_interval"] = spaces.Box(0.0, inf, (k,), np.float32)
     return spaces.Dict(entries)
+
+
+def has_footprint(config: EnvConfig) -> bool:
+    """Whether ``config``'s observations carry each picture's ``footprint``: a moving camera
+    whose pictures its ground landmarks rectify (the robots see the landmarks; see
+    ``anonloc_env.landmarks``)."""
+    return bool(config.camera.landmarks) and config.camera.moves
 
 
 def space_copy(space: spaces.Dict) -> spaces.Dict:
@@ -108,6 +123,8 @@ class ObservationBuilder:
             "detections": _frozen(np.zeros((d, 3), np.float32)),
             "mask": _frozen(np.zeros(d, np.float32)),
         }
+        if has_footprint(config):
+            self._shared["footprint"] = _frozen(np.zeros((4, 2), np.float32))
         if k > 0:
             self._shared["history_detections"] = _frozen(np.zeros((k, d, 3), np.float32))
             self._shared["history_mask"] = _frozen(np.zeros((k, d), np.float32))
@@ -139,6 +156,8 @@ class ObservationBuilder:
             self._push_history(picture.time, odometry_between)
         self._shared["detections"] = _frozen(detections)
         self._shared["mask"] = _frozen(mask)
+        if "footprint" in self._shared and picture.footprint is not None:
+            self._shared["footprint"] = _frozen(np.asarray(picture.footprint, np.float32))
         if self._picture_time is not None:
             self._interval = _frozen(np.array([picture.time - self._picture_time], np.float32))
             self._between = _frozen(odometry_between.astype(np.float32))
@@ -206,8 +225,16 @@ class ObservationBuilder:
         shared = self._shared
         between = self._between.astype(np.float64)
         interval = float(self._interval[0])
+        footprint = shared.get("footprint")
         return gather_step(
-            True, odometry, bumper, shared["detections"], shared["mask"], between, interval
+            True,
+            odometry,
+            bumper,
+            shared["detections"],
+            shared["mask"],
+            between,
+            interval,
+            footprint,
         )
 
     def _template(self, flag: np.ndarray, since: np.ndarray) -> dict[str, np.ndarray]:
@@ -224,6 +251,8 @@ class ObservationBuilder:
             "odometry_between": _PLACEHOLDER,
             "interval": self._interval,
         }
+        if "footprint" in shared:
+            template["footprint"] = shared["footprint"]
         if self.history > 0:
             template["history_detections"] = shared["history_detections"]
             template["history_mask"] = shared["history_mask"]

@@ -219,11 +219,19 @@ class InformationGain:
         self.pictures = 0
         self.log_true: np.ndarray | None = None
         if picture is not None:
-            self.log_true = self._observe(seen_rows(picture.detections), None, picture)
+            footprint = None if picture.footprint is None else seen_rows(picture.footprint)
+            rows = seen_rows(picture.detections)
+            self.log_true = self._observe(rows, None, picture, footprint)
 
-    def _observe(self, rows: np.ndarray, interval: Interval | None, picture: Picture) -> np.ndarray:
+    def _observe(
+        self,
+        rows: np.ndarray,
+        interval: Interval | None,
+        picture: Picture,
+        footprint: np.ndarray | None,
+    ) -> np.ndarray:
         assert self.identifier is not None  # reset() came first
-        self.identifier.update(rows, interval if self.pictures else None)
+        self.identifier.update(rows, interval if self.pictures else None, footprint)
         self.pictures += 1
         self.rows = rows
         prob = self.identifier.belief_at(picture.true_index)  # "missing" where not detected
@@ -237,7 +245,7 @@ class InformationGain:
         self.motion.command(context.v, context.w, np.abs(context.v))
         interval = self.motion.observe(seen)
         if context.picture is not None:
-            log_true = self._observe(seen.rows, interval, context.picture)
+            log_true = self._observe(seen.rows, interval, context.picture, seen.footprint)
             if self.log_true is not None:
                 reward = reward + cfg.information_weight * (log_true - self.log_true)
             self.log_true = log_true

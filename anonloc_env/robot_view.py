@@ -35,6 +35,9 @@ class Step:
         between: ``(R, 3)`` own motion from the previous picture to the newest (read only at a
             new picture; zeros otherwise).
         interval: time between the previous picture and the newest (s).
+        footprint: ``(4, 2)`` the newest picture's field of view in the frame of ``rows``, where
+            the observations carry it (a moving camera with ground landmarks; float64 of the
+            float32 observed), else ``None``; read only at a new picture.
     """
 
     rows: np.ndarray
@@ -43,6 +46,7 @@ class Step:
     bumper: np.ndarray
     between: np.ndarray
     interval: float
+    footprint: np.ndarray | None = None
 
 
 def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
@@ -75,6 +79,7 @@ def read_step(observations: Sequence[Mapping[str, Any]]) -> Step:
             first["mask"],
             between,
             float(first["interval"][0]),
+            first.get("footprint"),
         )
     except KeyError as missing:
         raise ValueError(f"observation lacks the key {missing.args[0]!r}") from None
@@ -88,11 +93,13 @@ def gather_step(
     mask: np.ndarray | None = None,
     between: np.ndarray | None = None,
     interval: float = 0.0,
+    footprint: np.ndarray | None = None,
 ) -> Step:
     """The :class:`Step` of R robots from their observation's arrays, stacked in robot order:
     ``odometry`` ``(R, 3)`` float64 (of the float32 observed), ``bumper`` ``(R,)`` bool, and at a
     new picture its ``detections`` ``(D, 3)`` and ``mask`` ``(D,)`` (float32, as observed),
-    ``between`` ``(R, 3)`` float64 and the ``interval`` (s). :func:`read_step` (from the robots'
+    ``between`` ``(R, 3)`` float64, the ``interval`` (s) and, where observed, the picture's
+    ``footprint`` ``(4, 2)`` (float64 of the float32). :func:`read_step` (from the robots'
     observation dicts) and the env (from the arrays it builds them from) both come here, so the
     two give the same bits."""
     if not new_picture:
@@ -101,7 +108,8 @@ def gather_step(
     assert mask is not None
     assert between is not None
     rows = np.asarray(detections)[np.asarray(mask) > 0.5].astype(np.float64)
-    return Step(rows, True, odometry, bumper, between, interval)
+    seen_footprint = None if footprint is None else np.asarray(footprint, np.float64)
+    return Step(rows, True, odometry, bumper, between, interval, seen_footprint)
 
 
 def seen_rows(detections: np.ndarray) -> np.ndarray:

@@ -106,6 +106,10 @@ class Localizer:
             undecided.
         belief: ``(R, n)`` float: robot i's probability for each row of the newest picture (a
             row's sum may fall short of 1: the rest is "I am not in the picture").
+        footprint: ``(4, 2)`` the newest picture's field of view in its rows' frame where the
+            observations carry it (a moving camera with ground landmarks), set by the team
+            before each ``on_picture``; ``None`` otherwise. ``bayes`` gives it to its
+            identifier (robots near the view's edge may have left it).
     """
 
     #: Pictures needed before a first decision.
@@ -138,6 +142,7 @@ class Localizer:
         self.durations: list[float] = []
         self.estimate = np.full(self.n, -1, dtype=np.int64)
         self.belief = np.zeros((self.n, 0))
+        self.footprint: np.ndarray | None = None
         if self.registration is not None:
             self.registration.reset()
 
@@ -422,7 +427,7 @@ class BayesLocalizer(Localizer):
 
     def on_picture(self, rows: np.ndarray, interval: Interval | None, duration: float) -> None:
         if self._shared is None:
-            self.identifier.update(rows, interval)
+            self.identifier.update(rows, interval, self.footprint)
         else:
             self._check_in_step(rows)
         self._seen += 1

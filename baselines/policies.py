@@ -115,6 +115,7 @@ class Team:
             elif interval is not None:
                 self.intervals.append(interval)
             for localizer in (self.localizer, *self.listeners.values()):
+                localizer.footprint = step.footprint  # where the observations carry it
                 localizer.on_picture(step.rows, interval, step.interval)
             self.pictures_seen += 1
             own = self.localizer

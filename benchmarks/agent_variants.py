@@ -16,8 +16,15 @@ crowd: the agent sees the crowd features and ``entropy_after*crowded`` is ``-K``
 ``energy*crowded`` ``-K / 2`` (:data:`agents.linear_terms.CROWDED_TERMS`: 0 unless the crowding
 around the robot reaches ``agents.linear_terms.CROWDED``), so that where robots touch it
 drives nearly the candidate of least expected entropy plus half a nat per unit of energy, and
-elsewhere it is its base bit for bit. The variants are saved as ordinary linear agents
-(``agents.linear_agent``).
+elsewhere it is its base bit for bit. ``dense K`` (ninth round) is the same trade gated by the
+whole arena instead: the agent sees only the ``density`` crowd feature (rows per m² of the
+picture) and ``entropy_after*dense`` is ``-K``, ``energy*dense`` ``-K / 2``
+(:data:`agents.linear_terms.DENSE_TERMS`: 0 below ``agents.linear_terms.DENSE`` rows per m²,
+so that in every open-space condition it is its base bit for bit). ``missing E`` (ninth round)
+adds, on top of ``dense 100``, ``energy*missing`` ``-E``: a stronger preference for cheap
+candidates on a camera that misses robots (``missing`` is ``1 - p_detect``, 0 on a clean camera,
+:data:`agents.linear_terms.MISSING_TERMS`). The variants are saved as
+ordinary linear agents (``agents.linear_agent``).
 
 Usage::
 
@@ -25,7 +32,9 @@ Usage::
 
 The seventh round's variants were made from the agent bundled until then (``--base``: ``git show
 ec78ad0:agents/data/agent.zip > base.zip``); ``size-1.0`` is the agent bundled since. The
-eighth round's ``crowded`` variants were made from that one (``--base bundled``).
+eighth round's ``crowded`` and the ninth round's ``dense`` and ``missing`` variants were made
+from that one (``--base base.zip`` with ``git show cc24abb:agents/data/agent.zip > base.zip``);
+``missing-20`` is the agent bundled since the ninth round.
 """
 
 from __future__ import annotations
@@ -36,8 +45,16 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.candidate_features import CONTEXT_SPEC, Feature
+from agents.crowd_features import CROWD_CONTEXT_SPEC
 from agents.linear_agent import linear_weights, save_linear_agent
-from agents.linear_terms import CROWDED_TERMS, LINEAR_TERMS, SIZE_TERMS
+from agents.linear_terms import (
+    CROWDED_TERMS,
+    DENSE_TERMS,
+    LINEAR_TERMS,
+    MISSING_TERMS,
+    SIZE_TERMS,
+)
 from agents.policy import agent_file
 from agents.spec import saved_spec
 
@@ -56,15 +73,24 @@ VARIANTS = {
 CROWDED_VARIANTS = {"crowded-30": 30.0, "crowded-100": 100.0}
 #: The terms of a crowded variant.
 CROWDED_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + CROWDED_TERMS
+#: The dense variants: name -> K.
+DENSE_VARIANTS = {"dense-10": 10.0, "dense-30": 30.0, "dense-100": 100.0, "dense-300": 300.0}
+#: The missing variants: name -> E.
+MISSING_VARIANTS = {"missing-10": 10.0, "missing-20": 20.0, "missing-40": 40.0}
+#: The terms of a dense variant.
+DENSE_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + DENSE_TERMS
 
 
-def crowded_weights(base: dict[str, float], k: float) -> np.ndarray:
-    """The weights of the crowded variant ``k`` over :data:`CROWDED_VARIANT_TERMS` (see the
-    module): ``base``'s (0 for a term it lacks), with ``greedy``'s trade where crowded."""
-    out = {t.name: base.get(t.name, 0.0) for t in CROWDED_VARIANT_TERMS}
-    out["entropy_after*crowded"] = -k
-    out["energy*crowded"] = -k / 2
-    return np.array([out[t.name] for t in CROWDED_VARIANT_TERMS])
+def gated_weights(
+    base: dict[str, float], k: float, gate: str, terms: tuple[Feature, ...]
+) -> np.ndarray:
+    """The weights over ``terms`` of ``base`` (0 for a term it lacks) with ``greedy``'s trade
+    behind ``gate`` (``crowded`` or ``dense``, see the module): ``entropy_after*GATE`` ``-k``,
+    ``energy*GATE`` ``-k / 2``."""
+    out = {t.name: base.get(t.name, 0.0) for t in terms}
+    out[f"entropy_after*{gate}"] = -k
+    out[f"energy*{gate}"] = -k / 2
+    return np.array([out[t.name] for t in terms])
 
 
 def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: bool) -> np.ndarray:
@@ -78,6 +104,14 @@ def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: b
     return np.array([out[t.name] for t in LINEAR_TERMS + SIZE_TERMS])
 
 
+def missing_weights(base: dict[str, float], e: float, terms: tuple[Feature, ...]) -> np.ndarray:
+    """The weights over ``terms`` of ``base`` (0 for a term it lacks) with ``energy*missing``
+    ``-e``."""
+    out = {t.name: base.get(t.name, 0.0) for t in terms}
+    out["energy*missing"] = -e
+    return np.array([out[t.name] for t in terms])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="folder for the variants' agent.zip files")
@@ -86,7 +120,7 @@ def main() -> None:
     bundled = linear_weights(args.base)
     spec = saved_spec(agent_file(args.base))
     assert spec is not None  # the bundled agent has a spec
-    spec = dataclasses.replace(spec, terms=LINEAR_TERMS + SIZE_TERMS)
+    spec = dataclasses.replace(spec, context_features=CONTEXT_SPEC, terms=LINEAR_TERMS + SIZE_TERMS)
     args.out.mkdir(parents=True, exist_ok=True)
     for name, (beta, duty, flat) in VARIANTS.items():
         path = save_linear_agent(
@@ -95,7 +129,29 @@ def main() -> None:
         print(f"{name}: {path}")
     crowd = dataclasses.replace(spec.with_crowd_features(), terms=CROWDED_VARIANT_TERMS)
     for name, k in CROWDED_VARIANTS.items():
-        path = save_linear_agent(crowded_weights(bundled, k), args.out / f"{name}.zip", crowd)
+        weights = gated_weights(bundled, k, "crowded", CROWDED_VARIANT_TERMS)
+        path = save_linear_agent(weights, args.out / f"{name}.zip", crowd)
+        print(f"{name}: {path}")
+    density = next(f for f in CROWD_CONTEXT_SPEC if f.name == "density")
+    dense = dataclasses.replace(
+        spec, context_features=(*CONTEXT_SPEC, density), terms=DENSE_VARIANT_TERMS
+    )
+    for name, k in DENSE_VARIANTS.items():
+        weights = gated_weights(bundled, k, "dense", DENSE_VARIANT_TERMS)
+        path = save_linear_agent(weights, args.out / f"{name}.zip", dense)
+        print(f"{name}: {path}")
+    # The missing variants start from dense-100 (the agent bundled since the ninth round).
+    dense_100 = dict(
+        zip(
+            (t.name for t in dense.terms),
+            gated_weights(bundled, 100.0, "dense", dense.terms),
+            strict=True,
+        )
+    )
+    missing = dataclasses.replace(dense, terms=DENSE_VARIANT_TERMS + MISSING_TERMS)
+    for name, e in MISSING_VARIANTS.items():
+        weights = missing_weights(dense_100, e, missing.terms)
+        path = save_linear_agent(weights, args.out / f"{name}.zip", missing)
         print(f"{name}: {path}")
 
 

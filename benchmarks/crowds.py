@@ -652,7 +652,7 @@ def main(argv: list[str] | None = None) -> None:
             write_json(args.json, found)
     elif args.command == "results":
         names, extra = list(args.excitations), _agent(args.agent)
-        names += list(extra)
+        names += [name for name in extra if name not in names]  # --excitations agent: once
         if args.no_escape:
             extra = without_escape(names, extra)
         if args.gaps_wait is not None:

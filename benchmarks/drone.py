@@ -427,8 +427,10 @@ def main() -> None:
                 _write(args.out, rows)
 
 
-def _write(path: Path, rows: list[dict[str, Any]]) -> None:
-    """``rows`` as JSON at ``path``, atomically."""
+def _write(path: Path | None, rows: list[dict[str, Any]]) -> None:
+    """``rows`` as JSON at ``path``, atomically (nothing without ``--out``: printed only)."""
+    if path is None:
+        return
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(rows, indent=1))
     os.replace(tmp, path)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -13,8 +14,12 @@ pytest.importorskip("stable_baselines3")
 
 import anonloc_env
 import baselines
+from agents.candidate_features import CONTEXT_SPEC
 from agents.evaluation import censored, censored_pictures, play
+from agents.linear_agent import linear_weights, save_linear_agent
+from agents.linear_terms import DENSE
 from agents.policy import BUNDLED, LearnedExcitation, as_saved, load_model
+from agents.spec import saved_spec
 from baselines.excitations.rest import RestWhenSure
 from baselines.registry import make_excitation
 from tests.cli_helpers import read_csv, run_script
@@ -55,6 +60,48 @@ def test_the_bundled_agent_runs_at_any_n_with_the_same_weights(n: int) -> None:
         assert all(robot.contains(a.astype(np.float32)) for a in actions)
         observations, *_ = env.step(dict(zip(env.possible_agents, actions, strict=True)))
     assert learned.cset is not None  # it scored and chose at the pictures
+
+
+def _twelve(
+    path: Path | None, density: float, seed: int = 3, clutter: bool = False
+) -> list[object]:
+    """An episode of 12 robots at ``density`` per m^2 (with ``clutter``: 10 % missed, 2 false
+    positives a picture), 8 pictures, played by the agent at ``path`` (None: the bundled one)."""
+    side = math.sqrt(12 / density)
+    camera = {"p_miss": 0.1, "false_positives": 2.0} if clutter else {}
+    env = anonloc_env.parallel_env(
+        n_robots=12,
+        arena_size=(side, side),
+        camera={"pixel_noise": 1.0, "orientation": False, **camera},
+    )
+    team = baselines.make_team("agent", env, **({} if path is None else {"path": str(path)}))
+    return baselines.runner.run_episode(env, team, seed, max_pictures=8).records
+
+
+def test_the_bundled_agent_is_its_base_on_a_clean_camera_in_open_space(tmp_path: Path) -> None:
+    """Ninth round: the bundled agent's ``*dense`` terms act only where the picture holds at
+    least ``DENSE`` rows per m^2, its ``*missing`` terms only where the camera misses robots. On
+    a clean camera at 1 per m^2 it plays its base, the seventh round's agent without the
+    ``density`` feature, episode for episode; at 4 per m^2, or with misses, it plays
+    differently."""
+    spec = saved_spec(BUNDLED)
+    assert spec is not None
+    assert DENSE == 2.5
+    weights = linear_weights("bundled")
+    assert weights["entropy_after*dense"] == -100.0
+    assert weights["energy*dense"] == -50.0
+    assert weights["energy*missing"] == -20.0
+    base_spec = dataclasses.replace(
+        spec,
+        context_features=CONTEXT_SPEC,
+        terms=tuple(t for t in spec.terms if t.name.split("*")[1] not in ("dense", "missing")),
+    )
+    kept = np.array([weights[t.name] for t in base_spec.terms])
+    base = save_linear_agent(kept, tmp_path / "base.zip", base_spec)
+    for seed in (3, 4):
+        assert _twelve(None, 1.0, seed) == _twelve(base, 1.0, seed)
+    assert _twelve(None, 4.0) != _twelve(base, 4.0)
+    assert _twelve(None, 1.0, clutter=True) != _twelve(base, 1.0, clutter=True)
 
 
 def test_same_seed_same_actions_with_the_bundled_agent() -> None:

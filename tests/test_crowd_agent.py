@@ -25,8 +25,11 @@ from agents.linear_terms import (
     CROWD_TERMS,
     CROWDED,
     CROWDED_TERMS,
+    DENSE,
+    DENSE_TERMS,
     KNOWN_TERMS,
     LINEAR_TERMS,
+    MISSING_TERMS,
     TERM_BASES,
     linear_terms,
 )
@@ -69,15 +72,18 @@ def test_the_crowd_features_follow_the_layouts_and_leave_the_episode_unchanged()
     assert len(plain.seen) == len(crowd.seen) >= 7
     for a, b in zip(plain.seen, crowd.seen, strict=True):
         assert b["candidates"].shape[-1] == len(CANDIDATE_SPEC) + 1
-        assert b["context"].shape[-1] == len(CONTEXT_SPEC) + 2
+        assert b["context"].shape[-1] == len(CONTEXT_SPEC) + 3
         np.testing.assert_array_equal(b["candidates"][..., : len(CANDIDATE_SPEC)], a["candidates"])
         np.testing.assert_array_equal(b["context"][:, : len(CONTEXT_SPEC)], a["context"])
     risk = np.concatenate([o["candidates"][..., -1].ravel() for o in crowd.seen])
-    free = np.concatenate([o["context"][:, -2] for o in crowd.seen])
-    crowding = np.concatenate([o["context"][:, -1] for o in crowd.seen])
+    free = np.concatenate([o["context"][:, -3] for o in crowd.seen])
+    crowding = np.concatenate([o["context"][:, -2] for o in crowd.seen])
+    density = np.concatenate([o["context"][:, -1] for o in crowd.seen])
     assert 0.0 <= risk.min() < risk.max() <= 1.0  # a crowd has contacts
     assert 0.0 <= free.min() < free.max() <= 1.0
     assert 0.0 <= crowding.min() < crowding.max()
+    # every robot is in every picture of the arena, which the view covers: 12 rows in 3 m^2
+    np.testing.assert_allclose(density, 4.0, rtol=1e-4)
 
 
 def test_a_chooser_that_meets_a_new_arena_sees_its_field_of_view() -> None:
@@ -149,20 +155,27 @@ def test_the_flat_observation_refuses_the_crowd_features() -> None:
         BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2), observation="flat")
     env = BeliefParallelEnv(config, CROWD.in_scenario("free", 0.2))  # the dict form takes them
     observations, _ = env.reset(seed=0)
-    assert observations[env.possible_agents[0]]["context"].shape == (len(CONTEXT_SPEC) + 2,)
+    assert observations[env.possible_agents[0]]["context"].shape == (len(CONTEXT_SPEC) + 3,)
 
 
-def test_the_crowded_gate_opens_only_at_the_threshold_in_numpy_and_torch() -> None:
-    """``base*crowded`` is the base where the crowding reaches ``CROWDED`` and 0 below it, the
-    same in numpy and torch (what lets an agent act only in a crowd)."""
-    terms = tuple(KNOWN_TERMS[f"{b.name}*crowded"] for b in TERM_BASES)
-    assert terms == CROWDED_TERMS
+@pytest.mark.parametrize(
+    ("gate", "feature", "threshold", "family"),
+    [("crowded", "crowding", CROWDED, CROWDED_TERMS), ("dense", "density", DENSE, DENSE_TERMS)],
+)
+def test_a_crowd_gate_opens_only_at_its_threshold_in_numpy_and_torch(
+    gate: str, feature: str, threshold: float, family: tuple[Feature, ...]
+) -> None:
+    """``base*crowded`` (``base*dense``) is the base where the crowding (the arena's density)
+    reaches its threshold and 0 below it, the same in numpy and torch (what lets an agent act
+    only in a crowd)."""
+    terms = tuple(KNOWN_TERMS[f"{b.name}*{gate}"] for b in TERM_BASES)
+    assert terms == family
     candidates = np.random.default_rng(2).normal(size=(3, 8, len(CROWD.candidate_features)))
     context = np.zeros((3, len(CROWD.context_features)))
-    context[:, CROWD.columns()[1]["crowding"]] = [CROWDED - 0.01, CROWDED, 3 * CROWDED]
+    context[:, CROWD.columns()[1][feature]] = [threshold - 0.01, threshold, 3 * threshold]
     out = linear_terms(candidates, context, np.stack, terms, CROWD.columns())
     entropy = candidates[..., CROWD.columns()[0]["entropy_after"]]
-    column = [t.name for t in terms].index("entropy_after*crowded")
+    column = [t.name for t in terms].index(f"entropy_after*{gate}")
     np.testing.assert_array_equal(out[0, :, column], 0.0)
     np.testing.assert_array_equal(out[1:, :, column], entropy[1:])
     scorer = LinearScorer(8, len(CROWD.context_features), terms, CROWD.columns())
@@ -171,3 +184,18 @@ def test_the_crowded_gate_opens_only_at_the_threshold_in_numpy_and_torch() -> No
         scorer.weights.copy_(torch.as_tensor(weights))
         logits, _ = scorer(torch.as_tensor(candidates).float(), torch.as_tensor(context).float())
     np.testing.assert_allclose(logits.numpy(), out @ weights, rtol=1e-5, atol=1e-4)
+
+
+def test_the_missing_gate_is_the_share_of_robots_a_picture_misses() -> None:
+    """``base*missing`` is the base times ``1 - p_detect``: 0 on a clean camera, so that an agent
+    with these terms plays its base there (the bundled agent, ninth round)."""
+    terms = tuple(KNOWN_TERMS[f"{b.name}*missing"] for b in TERM_BASES)
+    assert terms == MISSING_TERMS
+    candidates = np.random.default_rng(3).normal(size=(3, 8, len(CROWD.candidate_features)))
+    context = np.zeros((3, len(CROWD.context_features)))
+    context[:, CROWD.columns()[1]["p_detect"]] = [1.0, 0.9, 0.75]
+    out = linear_terms(candidates, context, np.stack, terms, CROWD.columns())
+    energy = candidates[..., CROWD.columns()[0]["energy"]]
+    column = [t.name for t in terms].index("energy*missing")
+    np.testing.assert_array_equal(out[0, :, column], 0.0)
+    np.testing.assert_allclose(out[1:, :, column], energy[1:] * np.array([[0.1], [0.25]]))

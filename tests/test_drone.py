@@ -26,6 +26,7 @@ from anonloc_env.landmarks import (
     fit_pose,
     landmark_error,
 )
+from anonloc_env.odometry import Interval
 from anonloc_env.rewards import EnergyCost
 
 
@@ -215,6 +216,67 @@ def test_a_fixed_cameras_landmarks_leave_its_rows_as_taken() -> None:
         env.reset(seed=3)
         rows.append(env.picture.detections)
     np.testing.assert_array_equal(rows[0], rows[1])
+
+
+def test_the_footprint_is_observed_with_landmarks_on_a_moving_camera_only() -> None:
+    """Where landmarks rectify a moving camera's pictures, the robots observe where the picture
+    covers the arena: its field of view through the landmarks' fit, within a pixel of the true
+    one (``landmark_error`` is 0.5 px); no other camera has the key."""
+    arena = (3.0, 3.0)
+    config = anonloc_env.make_config(
+        "drone-windy", n_robots=9, arena_size=arena, camera={"landmarks": border_landmarks(arena)}
+    )
+    env = anonloc_env.AnonLocEnv(config, reward_fn=EnergyCost())
+    env.reset(seed=4)
+    still = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    for _ in range(3):
+        for _ in range(10):
+            observations, *_ = env.step(still)
+        seen = observations["robot_0"]["footprint"]
+        assert seen.shape == (4, 2)
+        assert seen is observations["robot_5"]["footprint"]  # one array for the team
+        u_min, v_min, u_max, v_max = env.camera.field_of_view
+        corners = np.array([[u_min, v_min], [u_max, v_min], [u_max, v_max], [u_min, v_max]])
+        warp = env.camera.set_point @ np.linalg.inv(env.camera.homography)
+        truth = _through(warp, corners)
+        assert float(np.abs(seen - truth).max()) < 3.0
+        assert float(np.abs(truth - corners).max()) > 5.0  # the wind moved the view
+    for preset, landmarks in (("drone-windy", ()), ("default", border_landmarks(arena))):
+        other = anonloc_env.make_config(
+            preset, n_robots=9, arena_size=arena, camera={"landmarks": landmarks}
+        )
+        obs, _ = anonloc_env.AnonLocEnv(other, reward_fn=EnergyCost()).reset(seed=4)
+        assert "footprint" not in obs["robot_0"]
+
+
+def test_a_robot_out_of_the_landmarks_footprint_is_missed_at_no_cost() -> None:
+    """Two robots standing still at rows A (near the left wall) and B; the next picture shows B
+    only, and its footprint (as the landmarks tell it) leaves A's place out of view: each
+    robot's hypothesis that it is at A, unseen, gains on its hypothesis at B against the same
+    pictures without the footprint (1.7 nats here: a miss inside the view costs ``log(1e-6)``,
+    but without the footprint the count law, one row short of the team, makes a miss cheap
+    for every robot alike)."""
+    config = anonloc_env.make_config(
+        "drone-hover", n_robots=2, camera={"landmarks": border_landmarks((4.0, 4.0))}
+    )
+    camera = Camera(config)
+    a, b = camera.project(np.array([[0.3, 2.0], [2.0, 2.0]]))
+    u_min, v_min, u_max, v_max = camera.field_of_view
+    view = np.array([[u_min, v_min], [u_max, v_min], [u_max, v_max], [u_min, v_max]])
+    shifted = view + np.array([60.0, 0.0])  # the drift moved the view right by 0.6 m
+    zero = np.zeros(2)
+    still = Interval(np.zeros((2, 2)), zero, zero, zero, zero)
+    gaps = []
+    for footprint in (shifted, None):
+        identifier = Identifier(SensorModel.from_config(config), 2)
+        identifier.update(np.array([[*a, 0.0], [*b, 0.0]]), None, view)
+        identifier.update(np.array([[*b, 0.0]]), still, footprint)
+        tracks = identifier.tracks
+        at_a = (tracks.row < 0) & (np.hypot(*(tracks.pos - a).T) < 5.0)
+        unseen, at_b = tracks.logw[at_a], tracks.logw[tracks.row == 0]
+        assert len(unseen) == len(at_b) == 2  # each robot: at A unseen, or at B
+        gaps.append(unseen - at_b)
+    assert np.all(gaps[0] - gaps[1] > 1.0)
 
 
 def test_registration_without_landmarks_follows_the_camera() -> None:

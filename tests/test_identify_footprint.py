@@ -35,12 +35,18 @@ def _config(preset: str, landmarks: bool = False) -> anonloc_env.EnvConfig:
     )
 
 
-def test_only_a_registered_moving_camera_has_a_view() -> None:
-    """The fixed camera's identifier is the one it was (no footprint: every robot in view), and
-    a landmark-rectified picture has none the robots could read."""
+def test_only_a_moving_camera_has_a_view() -> None:
+    """The fixed camera's identifier is the one it was (no footprint: every robot in view),
+    with landmarks or without; a moving camera has one, registered or (round 9) rectified by
+    its landmarks, whose footprint the robots observe with the picture (its edges placed to
+    the landmarks' fit, the walls where the set point sees them)."""
     assert SensorModel.from_config(_config("default")).view is None
-    assert SensorModel.from_config(_config("drone-hover", landmarks=True)).view is None
+    assert SensorModel.from_config(_config("default", landmarks=True)).view is None
     assert SensorModel.from_config(_config("drone-hover")).view is not None
+    rectified = SensorModel.from_config(_config("drone-hover", landmarks=True)).view
+    assert rectified is not None
+    assert rectified.offset_sigma < 1e-3
+    assert 0.3 < rectified.fit_spreads[1] < 0.7
 
 
 def test_a_shifted_view_leaves_its_strip_out_and_nothing_else() -> None:

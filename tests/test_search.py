@@ -218,7 +218,7 @@ def test_anonloc_search_with_the_crowd_features_as_users_run_it(tmp_path: Path) 
     spec = saved_spec(out / "agent.zip")
     assert spec is not None
     assert spec.terms == CROWD_TERMS
-    assert [f.name for f in spec.context_features][-2:] == ["free_space", "crowding"]
+    assert [f.name for f in spec.context_features][-3:] == ["free_space", "crowding", "density"]
     assert spec.rest == 0.9999
     weights = load_model(out / "agent.zip").policy.scorer.weights.detach().numpy()
     gated = np.array([t.name.endswith("*crowding") for t in CROWD_TERMS])

@@ -16,7 +16,13 @@ pytest.importorskip("stable_baselines3")
 
 from agents.conditions import ConditionRanges, draw_scenario
 from agents.linear_agent import LINEAR_SPEC, linear_weights, save_linear_agent
-from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS, linear_terms
+from agents.linear_terms import (
+    DENSE_TERMS,
+    LINEAR_TERMS,
+    MISSING_TERMS,
+    SIZE_TERMS,
+    linear_terms,
+)
 from agents.search import (
     SIZE_ROBOTS,
     SearchConfig,
@@ -126,7 +132,11 @@ def test_a_search_starts_from_a_saved_agents_weights_by_term_name(tmp_path: Path
     np.testing.assert_allclose(mu[: len(LINEAR_TERMS)], weights, atol=1e-7)
     assert mu[len(LINEAR_TERMS) :] == [0.0] * len(SIZE_TERMS)
     assert first_mu(SearchConfig()) == [0.0] * len(LINEAR_TERMS)
-    assert list(linear_weights("bundled")) == [t.name for t in LINEAR_TERMS + SIZE_TERMS]
+    bundled = LINEAR_TERMS + SIZE_TERMS + DENSE_TERMS + MISSING_TERMS  # ninth round
+    assert list(linear_weights("bundled")) == [t.name for t in bundled]
+    # a search of the size terms from the bundled agent starts from its weights of those terms
+    mu = first_mu(SearchConfig(start="bundled", size=True))
+    assert mu == [linear_weights("bundled")[t.name] for t in LINEAR_TERMS + SIZE_TERMS]
 
 
 @pytest.mark.parametrize(

@@ -33,6 +33,16 @@ HARD = {
         "schedule": {"jitter": 0.2, "blackouts": ((0.0, 1.5), (5.0, 8.0))},
     },
     "tilted": {"n_robots": 6, "camera": {"tilt_deg": 10.0}},
+    # A windy drone whose landmarks rectify its pictures: the footprint the robots observe.
+    "landmarks": {
+        "n_robots": 12,
+        "camera": {
+            "drift": 0.25,
+            "yaw_wobble_deg": 2.0,
+            "height_wobble": 0.1,
+            "landmarks": ((0.6, 0.6), (2.0, 0.6), (3.4, 0.6), (0.6, 3.4), (2.0, 3.4), (3.4, 3.4)),
+        },
+    },
 }
 
 

@@ -106,12 +106,21 @@ class Identifier:
             return self.registration.pixel_var * self.model.crowd_noise**2 + floor**2
         return (self.model.pixel_noise * self.model.crowd_noise) ** 2 + floor**2
 
-    def update(self, rows: np.ndarray, interval: Interval | None = None) -> None:
+    def update(
+        self,
+        rows: np.ndarray,
+        interval: Interval | None = None,
+        footprint: np.ndarray | None = None,
+    ) -> None:
         """Take in a picture.
 
         Args:
             rows: ``(n, 3)`` detections ``(u, v, theta)`` of the new picture (no padding).
             interval: each robot's motion since the previous picture; ignored for the first one.
+            footprint: ``(4, 2)`` the picture's field of view in the frame of ``rows``, where it
+                comes with the picture (a moving camera's picture rectified by its landmarks:
+                the observation key ``footprint``, ``Picture.footprint``); ignored without the
+                model's ``view`` or with a registration (which gives its own).
         """
         rows = np.asarray(rows, dtype=np.float64).reshape(-1, 3)
         if self.registration is not None:  # anchored by the robots it is sure of, if pooled
@@ -121,13 +130,16 @@ class Identifier:
                 sure = sure_moves(self.tracks, interval, self.model, noise, self.scoring.theta_var)
             rows = self.registration.register(rows, sure)
         n_rows = len(rows)
-        view = self._out_of_view()
+        view = self._out_of_view(footprint)
         log_bg = log_background(self.model, n_rows, 1.0 if view is None else view.footprint.share)
         # A robot of unknown position: seen, missed, where (see out_of_view).
         log_seen, log_unseen, edge_bias = self.log_pd, self.log_miss, None
-        if view is not None and self.registration is not None:
-            sigma = math.hypot(self.registration.prior.spread, self.registration.error)
-            log_seen, log_unseen, edge_bias = view.unknown(self._view, rows, sigma)
+        if view is not None and self.model.view is not None:
+            reg = self.registration
+            step, error = (reg.prior.spread, reg.error) if reg else self.model.view.fit_spreads
+            log_seen, log_unseen, edge_bias = view.unknown(
+                self._view, rows, math.hypot(step, error)
+            )
         self._view = view
         if self.rows is None or interval is None:
             # A first picture (or one with no known motion before it): start from "unknown".
@@ -158,14 +170,18 @@ class Identifier:
             )
         self._compute_belief()
 
-    def _out_of_view(self) -> OutOfView | None:
-        """The newest registered picture's footprint (see
-        :mod:`anonloc_env.identify.footprint`), or None: every robot in view."""
+    def _out_of_view(self, footprint: np.ndarray | None) -> OutOfView | None:
+        """The newest picture's footprint (see :mod:`anonloc_env.identify.footprint`): the
+        registered one, or ``footprint`` as it came; None: every robot in view."""
         view, reg = self.model.view, self.registration
-        if view is None or reg is None:
+        if view is None or (reg is None and footprint is None):
             return None
-        corners = apply(reg.transform, reg.prior.centre, view.corners())
-        fp = Footprint.of(view, corners, reg.error)
+        if reg is not None:
+            fp = Footprint.of(
+                view, apply(reg.transform, reg.prior.centre, view.corners()), reg.error
+            )
+        else:
+            fp = Footprint.of(view, np.asarray(footprint, np.float64), view.fit_spreads[1])
         return OutOfView(fp, self.model, self.log_pd, self.log_miss)
 
     # -- one interval ----------------------------------------------------------------------------

@@ -33,6 +33,7 @@ move gets no footprint at all, so that the fixed camera's identifier is unchange
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -55,16 +56,29 @@ class View:
         offset_sigma: standard deviation per component of the registered frame's offset from
             the set point (where the arena's walls are in the frame the identifier reads): the
             camera's stationary shift.
+        fit_spreads: where each picture's footprint comes with it (a picture its landmarks
+            rectified): a robot's typical step between pictures (standard deviation per
+            component, image units) and the error of the footprint's place (the landmarks'
+            fit, per coordinate); zeros where a registration gives them.
     """
 
     field_of_view: tuple[float, float, float, float]
     arena: tuple[tuple[float, float], ...]
     offset_sigma: float
+    fit_spreads: tuple[float, float] = (0.0, 0.0)
 
     def corners(self) -> np.ndarray:
         """``(4, 2)`` the raw field of view's corners, in order round it."""
         u_min, v_min, u_max, v_max = self.field_of_view
         return np.array([[u_min, v_min], [u_max, v_min], [u_max, v_max], [u_min, v_max]])
+
+
+def landmark_view(config: EnvConfig, fit_error: float) -> View:
+    """The view of ``config``'s moving camera whose pictures its landmarks rectify into the set
+    point's frame (so its walls are where the set point sees them), each picture's footprint
+    off by the landmarks' fit error ``fit_error`` (image units, per coordinate)."""
+    step = 0.5 * config.robot.v_max * config.schedule.picture_interval * config.camera.scale
+    return dataclasses.replace(camera_view(config, 1e-6), fit_spreads=(step, fit_error))
 
 
 def camera_view(config: EnvConfig, offset_sigma: float) -> View:

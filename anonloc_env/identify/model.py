@@ -19,12 +19,13 @@ from anonloc_env.identify.contact import (
     JAM,
     break_length,
 )
-from anonloc_env.identify.footprint import View, camera_view
+from anonloc_env.identify.footprint import View, camera_view, landmark_view
 from anonloc_env.identify.pose_prior import (
     RegistrationPrior,
     registered_pixel_noise,
     registration_prior,
 )
+from anonloc_env.landmarks import landmark_error
 from anonloc_env.odometry import Interval
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -201,6 +202,15 @@ class SensorModel:
         return self.scale_range
 
 
+def _view(config: EnvConfig, registration: RegistrationPrior | None) -> View | None:
+    """A moving camera's view (its pictures' footprints), None for a fixed camera."""
+    if registration is not None:
+        return camera_view(config, registration.absolute[2])
+    if config.camera.landmarks and config.camera.moves:
+        return landmark_view(config, landmark_error(config, config.camera.pixel_noise))
+    return None
+
+
 @functools.lru_cache(maxsize=64)
 def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
     """:meth:`~anonloc_env.identify.model.SensorModel.from_config`, computed."""
@@ -238,7 +248,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         filter_position=crowd,
         crowd_noise=CROWD_NOISE if crowd and registration is None else 1.0,
         registration=registration,
-        view=None if registration is None else camera_view(config, registration.absolute[2]),
+        view=_view(config, registration),
         pooled_motion=registration is not None and config.camera.pooled_motion,
     )
 
