@@ -133,20 +133,25 @@ def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
     return candidates[..., column[name]]
 
 
+#: The gates that open where a context feature reaches a threshold: gate -> (feature, threshold).
+THRESHOLD_GATES = {
+    "decided": ("largest_belief", DECIDED),
+    "crowded": ("crowding", CROWDED),
+    "dense": ("density", DENSE),
+}
+
+
 def _gate(name: str, context: Any, column: Mapping[str, int]) -> Any:
+    if name in THRESHOLD_GATES:
+        feature, threshold = THRESHOLD_GATES[name]
+        return (context[:, None, column[feature]] >= threshold) * 1.0
     if name == "always":
         return context[:, None, column["scored"]] * 0.0 + 1.0
-    if name == "decided":
-        return (context[:, None, column["largest_belief"]] >= DECIDED) * 1.0
     if name == "rows_free":
         rows = context[:, None, column["rows"]]
         return rows * (1.0 - context[:, None, column["on_duty"]])
-    if name == "crowded":
-        return (context[:, None, column["crowding"]] >= CROWDED) * 1.0
     if name == "missing":
         return 1.0 - context[:, None, column["p_detect"]]
-    if name == "dense":
-        return (context[:, None, column["density"]] >= DENSE) * 1.0
     return context[:, None, column[name]]
 
 

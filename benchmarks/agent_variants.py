@@ -81,16 +81,21 @@ MISSING_VARIANTS = {"missing-10": 10.0, "missing-20": 20.0, "missing-40": 40.0}
 DENSE_VARIANT_TERMS = LINEAR_TERMS + SIZE_TERMS + DENSE_TERMS
 
 
+def edited_weights(
+    base: dict[str, float], terms: tuple[Feature, ...], edits: dict[str, float]
+) -> np.ndarray:
+    """The weights over ``terms`` of ``base`` (0 for a term it lacks), with ``edits`` (term name
+    -> weight) in place."""
+    out = {t.name: base.get(t.name, 0.0) for t in terms} | edits
+    return np.array([out[t.name] for t in terms])
+
+
 def gated_weights(
     base: dict[str, float], k: float, gate: str, terms: tuple[Feature, ...]
 ) -> np.ndarray:
-    """The weights over ``terms`` of ``base`` (0 for a term it lacks) with ``greedy``'s trade
-    behind ``gate`` (``crowded`` or ``dense``, see the module): ``entropy_after*GATE`` ``-k``,
-    ``energy*GATE`` ``-k / 2``."""
-    out = {t.name: base.get(t.name, 0.0) for t in terms}
-    out[f"entropy_after*{gate}"] = -k
-    out[f"energy*{gate}"] = -k / 2
-    return np.array([out[t.name] for t in terms])
+    """``base``'s weights over ``terms`` with ``greedy``'s trade behind ``gate`` (``crowded`` or
+    ``dense``, see the module): ``entropy_after*GATE`` ``-k``, ``energy*GATE`` ``-k / 2``."""
+    return edited_weights(base, terms, {f"entropy_after*{gate}": -k, f"energy*{gate}": -k / 2})
 
 
 def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: bool) -> np.ndarray:
@@ -102,14 +107,6 @@ def variant_weights(bundled: dict[str, float], beta: float, duty: float, flat: b
             out[f"{base}*always"] = 0.0
     out["energy*on_duty"] += duty
     return np.array([out[t.name] for t in LINEAR_TERMS + SIZE_TERMS])
-
-
-def missing_weights(base: dict[str, float], e: float, terms: tuple[Feature, ...]) -> np.ndarray:
-    """The weights over ``terms`` of ``base`` (0 for a term it lacks) with ``energy*missing``
-    ``-e``."""
-    out = {t.name: base.get(t.name, 0.0) for t in terms}
-    out["energy*missing"] = -e
-    return np.array([out[t.name] for t in terms])
 
 
 def main() -> None:
@@ -150,7 +147,7 @@ def main() -> None:
     )
     missing = dataclasses.replace(dense, terms=DENSE_VARIANT_TERMS + MISSING_TERMS)
     for name, e in MISSING_VARIANTS.items():
-        weights = missing_weights(dense_100, e, missing.terms)
+        weights = edited_weights(dense_100, missing.terms, {"energy*missing": -e})
         path = save_linear_agent(weights, args.out / f"{name}.zip", missing)
         print(f"{name}: {path}")
 
