@@ -19,8 +19,9 @@ the picture's rows, the rows, and its identifier's heaviest track (its believed 
 * ``density`` ``(R,)``: the rows of the picture per square metre of the field of view, the same
   for every robot: how crowded the whole arena is, also where no robot is near (ninth round).
 
-They are not in the layout of the bundled agent (``agents.candidate_features.LAYOUT`` 2, which a
-saved agent is checked against): an agent trained with them names them in its features.
+They are not in the layout (``agents.candidate_features.LAYOUT`` 2, which a saved agent is checked
+against): an agent trained with them names them in its features, and only the named ones are
+computed. The bundled agent (ninth round) names ``density`` alone.
 """
 
 from __future__ import annotations
