@@ -11,6 +11,7 @@ Run from the repository root, with an older commit checked out elsewhere::
         --copies 1 --rounds 1 --growth                                # cost against N
     python benchmarks/bench_belief.py --profile --robots 30 --copies 4  # where the time goes
     python benchmarks/bench_belief.py --profile --train 2             # ... in anonloc train
+    python benchmarks/bench_belief.py --one-env --robots 30 --copies 4 12  # what batching may win
 
 Each measurement is a fresh interpreter (``PYTHONPATH`` set to one checkout or the other) that
 builds the env (``--copies`` copies of the ``default`` scenario with N robots, the ``team``
@@ -28,6 +29,12 @@ of the shared machine weighs on both sides.
 reward, PPO with its hyperparameters and the candidate scorer, one torch thread), one untimed
 rollout, then ``PPO.learn`` over R rollouts (collection and updates): decisions per second with
 the network included.
+
+``--one-env`` measures what batching the copies could win: in one process, the K copies of N
+robots (with clutter: 8 % misses, 2 false positives per picture) against one env of K x N
+robots in K times the area with K times the false positives (the same density, the same work
+per robot), blocks of 20 decisions alternated, decisions per CPU second. A VecEnv whose copies
+shared every numpy call would cost about what the one env costs.
 """
 
 from __future__ import annotations
@@ -158,6 +165,40 @@ for label, seconds in sorted(shares.items(), key=lambda item: -item[1]):
 """
 
 
+ONE_ENV = """
+import sys, time
+import numpy as np
+from anonloc_env import make_config
+from agents.vec import AnonLocVecEnv
+from agents.spec import AgentSpec, Reward
+n, k, rounds = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+spec = AgentSpec(reward=Reward(identity="team"))
+def build(robots, copies, fp):
+    camera = {"p_miss": 0.08, "false_positives": fp}
+    vec = AnonLocVecEnv(make_config(n_robots=robots, camera=camera), n_envs=copies, spec=spec)
+    vec.seed(0)
+    vec.reset()
+    return vec
+sides = {"copies": build(n, k, 2.0), "one": build(n * k, 1, 2.0 * k)}
+rng = np.random.default_rng(0)
+def block(vec, steps):
+    start = time.process_time()
+    for _ in range(steps):
+        vec.step_async(rng.integers(0, 8, vec.num_envs))
+        vec.step_wait()
+    return steps * vec.num_envs / (time.process_time() - start)
+for vec in sides.values():
+    block(vec, 5)
+rates = {side: [] for side in sides}
+for r in range(rounds):
+    for side in ("copies", "one") if r % 2 == 0 else ("one", "copies"):
+        rates[side].append(block(sides[side], 20))
+ratio = np.median(np.array(rates["one"]) / np.array(rates["copies"]))
+copies, one = np.median(rates["copies"]), np.median(rates["one"])
+print(f"| {n} | {k} | {copies:,.0f} | {n * k} | {one:,.0f} | {ratio:.2f}x |")
+"""
+
+
 def rate(checkout: Path, code: str, args: list[str]) -> float:
     """Decisions per second that ``code`` prints, run in a fresh interpreter on ``checkout``."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
@@ -204,7 +245,24 @@ def main() -> None:
         help="instead: where the new checkout's time goes (timers around each part, CPU time; "
         "the first --robots and --copies, 200 decisions; with --train, its rollouts)",
     )
+    parser.add_argument(
+        "--one-env",
+        action="store_true",
+        help="instead: the copies against one env of all their robots (what batching the "
+        "copies could win; --robots with clutter, --copies, --rounds; the new checkout)",
+    )
     args = parser.parse_args()
+    if args.one_env:
+        print("| N | copies | copies' decisions/s | one env of | its decisions/s | one / copies |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        env = {**os.environ, "PYTHONPATH": str(args.new.resolve())}
+        for n in args.robots:
+            for copies in args.copies:
+                work = [str(n), str(copies), str(args.rounds)]
+                subprocess.run(
+                    [sys.executable, "-c", ONE_ENV, *work], env=env, cwd=args.new, check=True
+                )
+        return
     if args.profile:
         first = [str(args.robots[0]), str(args.copies[0])]
         work = [str(args.train), "train"] if args.train else ["200", *first]
