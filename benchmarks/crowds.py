@@ -428,8 +428,9 @@ def score_rule(episodes: Sequence[Played], rule: str) -> dict[str, Any]:
 
 def largest_fall(share: Sequence[float], after: float = 0.95) -> float | None:
     """The largest drop of ``share`` between two pictures once it reached ``after`` (None if it
-    never did)."""
-    reached = [k for k, s in enumerate(share) if s >= after]
+    never did). A share equal to ``after`` up to rounding has reached it (the same share summed
+    in another order is 0.95 in one JSON and 0.9499999999999999 in another)."""
+    reached = [k for k, s in enumerate(share) if s >= after - 1e-9]
     if not reached:
         return None
     tail = np.asarray(share[reached[0] :])
