@@ -91,16 +91,19 @@ class Validation:
 Player = Callable[[Scenario, int, Sequence[int], int], np.ndarray]
 
 
-def validation_scenarios(crowd: bool = False, pictures: int = 20) -> list[tuple[str, Scenario]]:
+def validation_scenarios(
+    crowd: bool = False, pictures: int = 20, keys: Sequence[str] | None = None
+) -> list[tuple[str, Scenario]]:
     """The validation conditions by key: ``free`` and ``swarm`` (one robot per m²) and, with
     ``crowd``, ``crowd`` (:data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m²,
-    free motion)."""
+    free motion); only those named in ``keys`` when given."""
     where = [("free", "free", 1.0), ("swarm", "swarm", 1.0)]
     if crowd:
         where.append(("crowd", "free", VALIDATION_CROWD_DENSITY))
     return [
         (key, validation_scenario(condition, pictures=pictures, density=density))
         for key, condition, density in where
+        if keys is None or key in keys
     ]
 
 
@@ -111,6 +114,7 @@ def validate_against_uniform(
     ablation: Callable[[], Excitation] = UniformChoice,
     crowd: bool = False,
     player: Player | None = None,
+    keys: Sequence[str] | None = None,
 ) -> dict[str, Validation]:
     """``make()``'s excitation against ``ablation()`` (default ``uniform``, its no-learning
     ablation; ``uniform-rest`` for an agent that rests) on the validation condition
@@ -119,7 +123,8 @@ def validate_against_uniform(
     ``free`` and ``swarm``) and, with ``crowd``, in free motion at
     :data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m² (key ``crowd``),
     ``episodes`` episodes of ``pictures`` pictures each. ``player`` plays the episodes instead
-    (the same episodes: a search's pool of processes, ``agents.search``)."""
+    (the same episodes: a search's pool of processes, ``agents.search``); ``keys``: only
+    these conditions (default: all of them)."""
     seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
     makers = (make, ablation)
 
@@ -130,7 +135,7 @@ def validate_against_uniform(
         return np.array([censored(r, pictures) for r in played])
 
     out = {}
-    for key, scenario in validation_scenarios(crowd, pictures):
+    for key, scenario in validation_scenarios(crowd, pictures, keys):
         mine, chance = ((player or here)(scenario, which, seeds, pictures) for which in (0, 1))
         out[key] = Validation(
             paired_ratio(mine[:, 0], chance[:, 0]),

@@ -24,10 +24,18 @@ al. 2017, "Evolution strategies as a scalable alternative to reinforcement learn
    pairs of ``(rank(+) - rank(-)) * noise``. A pair is played on the same episodes, so what
    differs between its two members is the direction of the perturbation alone.
 
-Every ``validate_every`` generations ``mu`` and ``uniform`` play the validation condition (14
-robots at one per m², a training N, seeds 900000 and up, never an evaluation seed, free motion
-and swarm duty): the curve in ``progress.csv`` is the run's own start (``uniform``) against its
-progress, with paired intervals. The run folder holds ``search.json`` (the config, the state and
+Every ``validate_every`` generations ``mu`` and the run's own start (``uniform``, or the
+weights of ``start``) play the validation condition (14 robots at one per m², a training N,
+seeds 900000 and up, never an evaluation seed, free motion and swarm duty; with ``crowd`` or
+``dense`` also 4 robots per m²): the curve in ``progress.csv`` is the run's progress against its
+own start, with paired intervals.
+
+A search may start from a saved agent and move one gate's terms alone (``start``, ``moves``):
+the tenth round's search started from the seventh round's agent and moved only the six terms
+behind the ``dense`` gate (``dense``: the bundled agent's 36 terms), on arenas of 2.5 to 6
+robots per m², where the ninth round had set two of them by hand (``docs/agents.md``).
+
+The run folder holds ``search.json`` (the config, the state and
 the history after each generation, written atomically: a search killed at any point resumes at
 the generation it was in) and ``agent.zip`` (the final ``mu`` as an SB3 agent,
 :func:`agents.linear_agent.save_linear_agent`).
@@ -56,7 +64,7 @@ from agents.conditions import (
 from agents.evaluation import validate_against_uniform
 from agents.linear_agent import LINEAR_SPEC, linear_weights
 from agents.linear_chooser import LinearChooser, chooser
-from agents.linear_terms import LINEAR_TERMS, SIZE_TERMS
+from agents.linear_terms import DENSE, LINEAR_TERMS, SIZE_TERMS
 from agents.policy import BUNDLED_NAME
 from agents.run_folder import write_text_atomic
 from agents.search_costs import Costing, costs, pool, pooled_player
@@ -122,6 +130,17 @@ class SearchConfig:
     energy_cap: float | None = None
     """The energy ratio to the baseline at or under which energy costs nothing, in (0, 10]
     (:func:`agents.search_costs.member_costs`); None: every ratio costs its log."""
+    dense: bool = False
+    """Whether the scorer reads the arena's density and the camera's misses: the crowd feature
+    ``density`` and the terms behind the ``dense`` and ``missing`` gates
+    (:meth:`agents.spec.AgentSpec.with_density`); with ``size`` the search has the bundled
+    agent's 36 terms."""
+    moves: str | None = None
+    """The gate whose terms alone the search moves (a gate of its terms: ``always``,
+    ``decided``, ``on_duty``, ``rows_free``, ``crowding``, ``dense``, ``missing``); every other
+    term keeps its start weight. With ``dense``, the search draws only arenas of at least
+    ``agents.linear_terms.DENSE`` robots per m² and validates only in the crowd, since below
+    that the members all play their start. None: every term moves."""
     start: str | None = None
     """A saved linear agent (``agent.zip``, its folder, or ``bundled``) whose weights, matched
     by term name, are the first ``mu`` (a term it lacks starts at 0); None: zeros, ``uniform``."""
@@ -156,15 +175,23 @@ class SearchConfig:
             )
         if self.crowd_only and not self.crowd:
             raise ValueError("crowd_only needs crowd (the crowd features and their terms)")
+        if self.moves is not None:
+            gates = sorted({t.name.split("*")[1] for t in search_spec(self).terms})
+            if self.crowd_only or self.moves not in gates:
+                raise ValueError(
+                    f"moves must be a gate of the search's terms, one of {gates}, and not with "
+                    f"crowd_only; got {self.moves!r}"
+                )
 
 
 def moved_terms(config: SearchConfig) -> np.ndarray:
-    """``(T,)`` 1 for each term the search moves, 0 for those it keeps at zero
-    (``SearchConfig.crowd_only``)."""
+    """``(T,)`` 1 for each term the search moves, 0 for those it keeps at their start
+    (``SearchConfig.moves``) or at zero (``SearchConfig.crowd_only``)."""
     terms = search_spec(config).terms
-    if not config.crowd_only:
+    gate = "crowding" if config.crowd_only else config.moves
+    if gate is None:
         return np.ones(len(terms))
-    return np.array([t.name.endswith("*crowding") for t in terms], np.float64)
+    return np.array([t.name.endswith(f"*{gate}") for t in terms], np.float64)
 
 
 def search_spec(config: SearchConfig) -> AgentSpec:
@@ -172,7 +199,8 @@ def search_spec(config: SearchConfig) -> AgentSpec:
     ``config.crowd``, at rest when ``config.rest``."""
     spec = dataclasses.replace(LINEAR_SPEC, rest=config.rest)
     spec = spec.with_crowd_features() if config.crowd else spec
-    return dataclasses.replace(spec, terms=spec.terms + SIZE_TERMS) if config.size else spec
+    spec = dataclasses.replace(spec, terms=spec.terms + SIZE_TERMS) if config.size else spec
+    return spec.with_density() if config.dense else spec
 
 
 def costing(config: SearchConfig) -> Costing:
@@ -189,22 +217,35 @@ def costing(config: SearchConfig) -> Costing:
 
 def search_ranges(config: SearchConfig) -> ConditionRanges:
     """The conditions a search draws from: ``config.ranges``, with :data:`SIZE_ROBOTS` added to
-    its robots when ``config.size``."""
-    if not config.size:
-        return config.ranges
-    robots = tuple(sorted({*config.ranges.robots, *SIZE_ROBOTS}))
-    return dataclasses.replace(config.ranges, robots=robots)
+    its robots when ``config.size``, and from :data:`agents.linear_terms.DENSE` robots per m²
+    up when it moves only the ``dense`` terms."""
+    ranges = config.ranges
+    if config.size:
+        robots = tuple(sorted({*ranges.robots, *SIZE_ROBOTS}))
+        ranges = dataclasses.replace(ranges, robots=robots)
+    if config.moves == "dense":
+        low, high = ranges.density
+        ranges = dataclasses.replace(ranges, density=(max(low, DENSE), max(high, DENSE)))
+    return ranges
+
+
+def validation_keys(config: SearchConfig) -> tuple[str, ...] | None:
+    """The validation conditions a search plays (``agents.evaluation.validation_scenarios``):
+    only the crowd when it moves only the ``dense`` terms (elsewhere every member is its start),
+    else all of them (None)."""
+    return ("crowd",) if config.moves == "dense" else None
 
 
 def first_mu(config: SearchConfig) -> list[float]:
     """The search's first ``mu``: zeros (``uniform``), or ``config.start``'s weights by term
-    name (zero for a term it lacks, and for a term the search does not move)."""
+    name (zero for a term it lacks, and with ``crowd_only`` for a term the search does not
+    move)."""
     terms = search_spec(config).terms
     if config.start is None:
         return [0.0] * len(terms)
     weights = linear_weights(config.start)
-    moved = moved_terms(config)
-    return [weights.get(t.name, 0.0) * float(m) for t, m in zip(terms, moved, strict=True)]
+    kept = moved_terms(config) if config.crowd_only else np.ones(len(terms))
+    return [weights.get(t.name, 0.0) * float(k) for t, k in zip(terms, kept, strict=True)]
 
 
 def validate(
@@ -215,24 +256,27 @@ def validate(
     spec: AgentSpec = LINEAR_SPEC,
     crowd: bool = False,
     executor: Executor | None = None,
+    start: np.ndarray | None = None,
+    keys: tuple[str, ...] | None = None,
 ) -> dict[str, float]:
-    """``weights`` against ``uniform`` (zero weights, bit for bit; both at rest once sure, with
-    ``rest``) on the validation condition (:func:`agents.evaluation.validate_against_uniform`),
-    in free motion and on swarm duty (and, with ``crowd``, in a crowd of 4 robots per m²): the
+    """``weights`` against the search's ``start`` (default zero weights: ``uniform`` bit for
+    bit; both at rest once sure, with ``rest``) on the validation condition
+    (:func:`agents.evaluation.validate_against_uniform`), in free motion and on swarm duty (and,
+    with ``crowd``, in a crowd of 4 robots per m²; only those in ``keys`` when given): the
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``, ``crowd_...``) and the censored mean
-    pictures of both; ``weights`` of ``spec``'s terms. ``executor`` plays the episodes in its
-    processes (the same episodes; None: here)."""
+    pictures of both (``free_mean``, ``free_start``, ...); ``weights`` of ``spec``'s terms.
+    ``executor`` plays the episodes in its processes (the same episodes; None: here)."""
     out: dict[str, float] = {}
-    zeros = np.zeros(len(spec.terms))
-    ablation = chooser(zeros, rest, spec)
-    player = None if executor is None else pooled_player(executor, (weights, zeros), rest, spec)
+    reference = np.zeros(len(spec.terms)) if start is None else np.asarray(start)
+    ablation = chooser(reference, rest, spec)
+    player = None if executor is None else pooled_player(executor, (weights, reference), rest, spec)
     validations = validate_against_uniform(
-        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player
+        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player, keys
     )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
-        out[f"{condition}_uniform"] = v.uniform
+        out[f"{condition}_start"] = v.uniform
         for what, ratio in (("pictures", v.pictures), ("energy", v.energy)):
             out[f"{condition}_{what}"] = ratio.mean
             out[f"{condition}_{what}_low"] = ratio.low
@@ -362,8 +406,10 @@ def search(
             config.pictures,
             config.rest,
             spec,
-            config.crowd,
+            config.crowd or config.dense,
             executor,
+            np.asarray(first_mu(config)),
+            validation_keys(config),
         )
 
     started = time.perf_counter()
@@ -380,7 +426,8 @@ def search(
             save()
             log(_summary(history[-1]))
         last = history[-1] if history else {}
-        if not (last.get("generation") == state.generation and "free_pictures" in last):
+        validated = any(k.endswith("_pictures") for k in last if not k.startswith("mu_"))
+        if not (last.get("generation") == state.generation and validated):
             history.append({"generation": state.generation, **validate_mu()})
             save()
             log(_summary(history[-1]))
@@ -432,7 +479,7 @@ def _summary(row: dict[str, Any]) -> str:
             f", cost {row['mu_cost']:.3f} (best member {row['best_cost']:.3f}), step"
             f" {row['step']:.2f}"
         )
-    if "free_pictures" in row:
+    if any(c + "_pictures" in row for c in ("free", "swarm", "crowd")):
         text += "; validation " + ", ".join(
             f"{c} {row[c + '_pictures']:.3f}x [{row[c + '_pictures_low']:.2f}, "
             f"{row[c + '_pictures_high']:.2f}] pictures, {row[c + '_energy']:.3f}x energy"

@@ -44,7 +44,13 @@ from agents.candidate_features import (
     information,
 )
 from agents.crowd_features import CROWD_CANDIDATE_SPEC, CROWD_CONTEXT_SPEC
-from agents.linear_terms import CROWD_TERMS, KNOWN_TERMS, LINEAR_TERMS
+from agents.linear_terms import (
+    CROWD_TERMS,
+    DENSE_TERMS,
+    KNOWN_TERMS,
+    LINEAR_TERMS,
+    MISSING_TERMS,
+)
 from anonloc_env._checks import check_choice, check_number
 from baselines.excitations import Excitation, SwarmDuty
 from baselines.excitations.rest import at_rest
@@ -194,6 +200,19 @@ class AgentSpec:
             candidate_features=CANDIDATE_SPEC + CROWD_CANDIDATE_SPEC,
             context_features=CONTEXT_SPEC + CROWD_CONTEXT_SPEC,
             terms=CROWD_TERMS if self.scorer == "linear" else (),
+        )
+
+    def with_density(self) -> AgentSpec:
+        """This linear spec seeing the arena's ``density`` too (the one crowd feature of
+        ``agents.crowd_features`` it adds), with the terms behind the ``dense`` and ``missing``
+        gates after its own (:data:`agents.linear_terms.DENSE_TERMS`,
+        :data:`agents.linear_terms.MISSING_TERMS`): the bundled agent's spec since the ninth
+        round, from the seventh round's."""
+        density = next(f for f in CROWD_CONTEXT_SPEC if f.name == "density")
+        return dataclasses.replace(
+            self,
+            context_features=(*self.context_features, density),
+            terms=self.terms + DENSE_TERMS + MISSING_TERMS,
         )
 
     @property

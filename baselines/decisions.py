@@ -1,5 +1,6 @@
 """Decisions from the identifier's beliefs: decide at ``threshold``; optionally hold a decision
-through a dip down to ``keep``, and take no new decision while jammed.
+through a dip down to ``keep`` (and let go of robots that stood still since they decided), and
+take no new decision while jammed.
 
 By default (``keep = threshold``, no ``settle``) a robot is decided exactly while its top belief
 is at least ``threshold`` (0.99): ``bayes``'s rule. Two options change it (issue 23, sixth round;
@@ -17,15 +18,37 @@ neither is the default):
   decision (one decided before keeps it while the rule above allows): what a jammed robot's
   pictures add cannot tell it from the robots jammed like it. Fewer wrong decisions; jammed
   robots are identified later.
+* **release** (metres, with a hold): a robot that has rolled less than ``release`` since it
+  decided (its wheels' path, summed over the intervals since) is not held: it stood still, so
+  its own pictures cannot have confirmed its track against a still neighbour's, and a dip is
+  the one sign that it decided wrong (issue 23, tenth round: ``random``'s robots turn in place
+  after a bump and kept wrong decisions through the dips that would have undone them).
+
+``Decisions.crowd`` is ``bayes``'s default: the hold with the release, in a crowd only (see
+``in_crowd``: above one robot per m^2, clean pictures, a fixed camera, where it was measured);
+elsewhere the plain threshold, bit for bit (``docs/crowds.md``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from anonloc_env.identify import Identifier
+from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
 from anonloc_env.identify.tracks import Tracks
+
+#: ``bayes``'s hold in a crowd: the belief down to which a decided robot keeps its decision.
+CROWD_KEEP = 0.9
+#: ``bayes``'s release in a crowd: the path (m) a robot must have rolled since it decided to be
+#: held.
+CROWD_RELEASE = 0.05
+
+
+def in_crowd(model: SensorModel) -> bool:
+    """Whether ``Decisions.crowd`` holds decisions under ``model``: where the identifier models
+    a crowd (``filter_position``: above one robot per m^2, clean pictures) with a fixed camera
+    (no ``registration``), the conditions of ``crowd_noise`` and of the measurements."""
+    return model.filter_position and model.registration is None
 
 
 class Decisions:
@@ -37,10 +60,19 @@ class Decisions:
             ``threshold`` (the default): no hold.
         settle: intervals pushed in a row (>= 2) past which a robot takes no new decision;
             None (the default): no such limit.
+        release: path (m, > 0) a decided robot must have rolled since it decided to be held;
+            None (the default): every decided robot may be held. Needs a hold.
+        only_in_crowd: apply the hold, release and settle only where ``in_crowd`` (the
+            identifier's model); elsewhere decide at ``threshold``.
     """
 
     def __init__(
-        self, threshold: float = 0.99, keep: float | None = None, settle: int | None = None
+        self,
+        threshold: float = 0.99,
+        keep: float | None = None,
+        settle: int | None = None,
+        release: float | None = None,
+        only_in_crowd: bool = False,
     ) -> None:
         if not 0.5 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0.5, 1), got {threshold}")
@@ -49,10 +81,20 @@ class Decisions:
             raise ValueError(f"keep must be in (0.5, threshold = {threshold}], got {keep}")
         if settle is not None and settle < 2:
             raise ValueError(f"settle must be >= 2 intervals (or None), got {settle}")
+        if release is not None and not (release > 0.0 and keep < threshold):
+            raise ValueError(f"release must be > 0 m and come with keep < threshold, got {release}")
         self.threshold = threshold
         self.keep = keep
         self.settle = settle
+        self.release = release
+        self.only_in_crowd = only_in_crowd
         self.reset()
+
+    @classmethod
+    def crowd(cls, threshold: float = 0.99) -> Decisions:
+        """``bayes``'s default: the hold (``CROWD_KEEP``) with the release (``CROWD_RELEASE``)
+        in a crowd, the plain threshold elsewhere (see the module)."""
+        return cls(threshold, CROWD_KEEP, None, CROWD_RELEASE, only_in_crowd=True)
 
     @property
     def plain(self) -> bool:
@@ -63,6 +105,7 @@ class Decisions:
         """Forget every decision (a new episode)."""
         self._tracks: Tracks | None = None  # each decided robot's track at its decided row
         self._estimate: np.ndarray | None = None
+        self._rolled: np.ndarray | None = None  # path (m) each decided robot rolled since deciding
         self.held = 0  # decisions held below the threshold so far (a count for the benchmarks)
 
     def decide(self, identifier: Identifier, belief: np.ndarray) -> np.ndarray:
@@ -75,17 +118,29 @@ class Decisions:
         best = belief.argmax(axis=1)
         top = belief[np.arange(n), best]
         decided = top >= self.threshold
-        if self.plain:
+        if self.plain or (self.only_in_crowd and not in_crowd(identifier.model)):
             return np.where(decided, best, -1)
         before = self._estimate
+        rolled = self._rolled_now(identifier, n)
         if self.settle is not None and before is not None:
             decided &= (identifier.pushed_run <= self.settle) | (before >= 0)
         if self.keep < self.threshold:
-            decided |= self._held(identifier, best, top, decided)
+            moved = rolled >= self.release if self.release is not None else np.ones(n, bool)
+            decided |= self._held(identifier, best, top, decided | ~moved)
             robots = np.flatnonzero(decided)
             self._tracks = decided_tracks(identifier.tracks, robots, best[robots])
         self._estimate = np.where(decided, best, -1)
+        self._rolled = np.where(decided, rolled, 0.0)
         return self._estimate
+
+    def _rolled_now(self, identifier: Identifier, n: int) -> np.ndarray:
+        """``(R,)`` the path each robot decided at the previous picture has rolled since it
+        decided, the newest interval included (0 for the others)."""
+        interval = identifier.interval
+        if self._estimate is None or self._rolled is None or len(self._rolled) != n:
+            return np.zeros(n)
+        path = np.zeros(n) if interval is None else interval.path
+        return np.where(self._estimate >= 0, self._rolled + path, 0.0)
 
     def _held(
         self, identifier: Identifier, best: np.ndarray, top: np.ndarray, sure: np.ndarray

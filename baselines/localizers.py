@@ -357,10 +357,16 @@ class BayesLocalizer(Localizer):
         scale_known: False estimates the camera scale per hypothesis.
         share: read the env's reward's identifier where it is the same (see above).
         keep: belief down to which a decided robot keeps its decision while its belief dips
-            along the track it decided on (``baselines.decisions``); None (the default):
-            ``threshold``, no hold.
+            along the track it decided on (``baselines.decisions``); None: ``threshold``, no
+            hold.
         settle: intervals pushed in a row past which a robot takes no new decision
-            (``baselines.decisions``); None (the default): no limit.
+            (``baselines.decisions``); None: no limit.
+        release: path (m) a decided robot must have rolled since it decided to be held
+            (``baselines.decisions``); None: no release.
+
+    With none of ``keep``, ``settle`` and ``release`` given, the decisions are
+    ``Decisions.crowd``: the hold with the release where the identifier models a crowd (above
+    one robot per m^2, clean pictures), the plain threshold elsewhere.
     """
 
     needs = 1
@@ -375,10 +381,14 @@ class BayesLocalizer(Localizer):
         share: bool = True,
         keep: float | None = None,
         settle: int | None = None,
+        release: float | None = None,
     ) -> None:
         if mode != "corrected":
             raise ValueError("the Bayesian identifier has no faithful mode; use mode='corrected'")
-        self.decisions = Decisions(threshold, keep, settle)
+        if keep is None and settle is None and release is None:
+            self.decisions = Decisions.crowd(threshold)
+        else:
+            self.decisions = Decisions(threshold, keep, settle, release)
         self.threshold = threshold
         self.scale_known = scale_known
         self.share = share

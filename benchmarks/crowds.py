@@ -211,13 +211,17 @@ def without_escape(
     return {**extra, **{name: functools.partial(old, name) for name in names}}
 
 
-#: Decision rules scored beside ``bayes``'s threshold (``--rules``; ``baselines.decisions``):
-#: ``(keep, settle)``. The decisions never reach the motion (every excitation reads beliefs),
-#: so each rule is scored on the very episodes ``bayes`` plays.
-RULES: dict[str, tuple[float | None, int | None]] = {
-    "hold 0.9": (0.9, None),
-    "settle 6": (None, 6),
-    "hold 0.9, settle 6": (0.9, 6),
+#: Decision rules scored beside ``bayes``'s own (``--rules``; ``baselines.decisions``):
+#: ``(keep, settle, release)``. The decisions never reach the motion (every excitation reads
+#: beliefs), so each rule is scored on the very episodes ``bayes`` plays. ``threshold`` is the
+#: plain rule (``bayes``'s own in open space, and in a crowd before the tenth round).
+RULES: dict[str, tuple[float | None, int | None, float | None]] = {
+    "threshold": (None, None, None),
+    "hold 0.9": (0.9, None, None),
+    "hold 0.9, release 0.02": (0.9, None, 0.02),
+    "hold 0.9, release 0.05": (0.9, None, 0.05),
+    "hold 0.9, release 0.1": (0.9, None, 0.1),
+    "hold 0.9, release 0.2": (0.9, None, 0.2),
 }
 
 
@@ -424,8 +428,9 @@ def score_rule(episodes: Sequence[Played], rule: str) -> dict[str, Any]:
 
 def largest_fall(share: Sequence[float], after: float = 0.95) -> float | None:
     """The largest drop of ``share`` between two pictures once it reached ``after`` (None if it
-    never did)."""
-    reached = [k for k, s in enumerate(share) if s >= after]
+    never did). A share equal to ``after`` up to rounding has reached it (the same share summed
+    in another order is 0.95 in one JSON and 0.9499999999999999 in another)."""
+    reached = [k for k, s in enumerate(share) if s >= after - 1e-9]
     if not reached:
         return None
     tail = np.asarray(share[reached[0] :])

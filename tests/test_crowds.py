@@ -497,6 +497,8 @@ def test_largest_fall_after_95_and_the_figures(tmp_path: Path) -> None:
 
     assert largest_fall([0.5, 0.96, 0.97, 0.94, 0.99]) == pytest.approx(0.03)
     assert largest_fall([0.5, 0.9]) is None
+    # 0.95 up to rounding has reached 0.95 (the ninth grid's `distinct`, 6 per m^2, N = 100)
+    assert largest_fall([0.5, 0.9499999999999999, 0.93]) == pytest.approx(0.02)
     pytest.importorskip("matplotlib")
     from benchmarks.plot_crowds import plot, pooled
 

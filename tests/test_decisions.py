@@ -14,7 +14,7 @@ import anonloc_env
 import baselines
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
-from baselines.decisions import Decisions
+from baselines.decisions import CROWD_KEEP, CROWD_RELEASE, Decisions, in_crowd
 from baselines.runner import run_episode
 from benchmarks.crowds import RULES, THRESHOLD, load_recorded, play, score_cell
 from benchmarks.excitations import scenario
@@ -130,6 +130,8 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
         ({"keep": 0.995}, "keep"),
         ({"keep": 0.5}, "keep"),
         ({"settle": 1}, "settle"),
+        ({"release": 0.05}, "release"),
+        ({"keep": 0.9, "release": 0.0}, "release"),
     ],
 )
 def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> None:
@@ -139,11 +141,11 @@ def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> 
 
 def test_bayes_takes_the_rules_when_asked() -> None:
     """``make_team("bayes", env, keep=0.9, settle=6)`` decides by those rules on the env's
-    identifier; by default a team's decisions are the plain threshold's."""
+    identifier; by default a team's decisions are ``Decisions.crowd``."""
     env = anonloc_env.AnonLocEnv(scenario(30, 8, 4.0), reward_fn=anonloc_env.EnergyCost())
     team = baselines.make_team("bayes", env, excitation="greedy", keep=0.9, settle=6)
     assert (team.localizer.decisions.keep, team.localizer.decisions.settle) == (0.9, 6)
-    assert baselines.make_team("bayes", env, excitation="greedy").localizer.decisions.plain
+    assert baselines.make_team("bayes", env, excitation="greedy").localizer.decisions.only_in_crowd
     result = run_episode(env, team, 700, max_pictures=8)
     assert any(r.estimate >= 0 for r in result.records)
     with pytest.raises(ValueError, match="keep"):
@@ -162,3 +164,61 @@ def test_the_benchmark_scores_every_rule_on_the_same_episode() -> None:
     for scored in with_rules["rules"].values():
         assert len(scored["share"]) == len(alone["share"])
         assert 0 <= scored["wrong"] <= scored["decided"]
+
+
+def test_release_holds_only_robots_that_rolled_since_they_decided() -> None:
+    """With ``release`` a robot below the threshold is decided only if it was decided at the
+    previous picture and its wheels rolled at least ``release`` since it decided (summed over the
+    intervals since, the newest included); every robot it holds the hold alone holds too. On the
+    recorded ``uniform`` episode it holds 17 decisions and lets go of 3 that the hold keeps."""
+    config, result = load_recorded(str(FALL))
+    identifier = Identifier(SensorModel.from_config(config), result.n_robots)
+    release = Decisions(keep=0.9, release=0.05)
+    hold = Decisions(keep=0.9)
+    before, rolled, held, released = None, np.zeros(result.n_robots), 0, 0
+    for rows, interval in zip(result.pictures, [None, *result.intervals], strict=False):
+        identifier.update(rows, interval)
+        belief = identifier.belief()
+        now = release.decide(identifier, belief).copy()
+        alone = hold.decide(identifier, belief)
+        below = (now >= 0) & (belief.max(axis=1) < THRESHOLD)
+        if before is not None and interval is not None:
+            rolled = np.where(before >= 0, rolled + interval.path, 0.0)
+            assert np.all(before[below] >= 0)
+            assert np.all(rolled[below] >= 0.05)
+        assert np.all(alone[below] == now[below])
+        held += int(below.sum())
+        released += int(((alone >= 0) & (now < 0)).sum())
+        before, rolled = now, np.where(now >= 0, rolled, 0.0)
+    assert (held, released) == (17, 3)
+
+
+def test_bayes_holds_with_the_release_in_a_crowd_only() -> None:
+    """``bayes``'s default decisions are ``Decisions.crowd``: the hold with the release where the
+    identifier models a crowd; at one robot per m^2 (open space) they are the plain threshold's,
+    bit for bit."""
+    for density, crowd in ((4.0, True), (1.0, False)):
+        env = anonloc_env.AnonLocEnv(scenario(30, 12, density), reward_fn=anonloc_env.EnergyCost())
+        team = baselines.make_team("bayes", env, excitation="uniform")
+        rule = team.localizer.decisions
+        assert (rule.keep, rule.release, rule.only_in_crowd) == (CROWD_KEEP, CROWD_RELEASE, True)
+        plain = baselines.make_team("bayes", env, excitation="uniform", keep=THRESHOLD)
+        assert plain.localizer.decisions.plain
+        ours = run_episode(env, team, 700, max_pictures=12)
+        theirs = run_episode(env, plain, 700, max_pictures=12)
+        pairs = zip(ours.records, theirs.records, strict=True)
+        changed = sum(a.estimate != b.estimate for a, b in pairs)
+        assert changed == (4 if crowd else 0)  # 4 of 360 robot-pictures at 4 per m^2
+
+
+def test_the_crowds_hold_only_where_it_was_measured() -> None:
+    """Above one robot per m^2 on clean pictures with a fixed camera; not in open space, not with
+    misses, not with a moving camera (its registration), where the plain threshold stays."""
+    assert in_crowd(SensorModel.from_config(anonloc_env.make_config("crowd")))
+    assert in_crowd(SensorModel.from_config(scenario(30, 30, 2.0)))
+    for n in (10, 30, 100):
+        assert not in_crowd(SensorModel.from_config(scenario(n, 30, 1.0)))
+    missing = anonloc_env.make_config("crowd", camera={"p_miss": 0.1})
+    assert not in_crowd(SensorModel.from_config(missing))
+    drone = anonloc_env.make_config("drone-hover", n_robots=40, arena_size=(4.0, 4.0))
+    assert not in_crowd(SensorModel.from_config(drone))  # 2.5 per m^2, a moving camera

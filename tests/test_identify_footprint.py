@@ -144,3 +144,41 @@ def test_unseen_keeps_a_shared_field_shared() -> None:
     assert is_shared(out)
     np.testing.assert_allclose(out, 11.0)
     np.testing.assert_allclose(registration.unseen(np.array([1.0, 2.0])), [10.0, 11.0])
+
+
+def test_a_robot_carried_out_before_it_is_known_keeps_its_place() -> None:
+    """40 robots (more rows than ``MISSED_PER_ROBOT``), a view rectified by its landmarks that
+    shifts 60 units right at the second picture: the rows left of the new edge are not seen.
+    Each robot, unsure of its row, keeps a missed track at each of those rows (they are likely
+    out of view now), at most ``LEAVING_ROWS`` of them, and none at a row deep in view; the
+    rest of the uniform weight's miss returns to "position unknown" as before."""
+    from anonloc_env.identify.out_of_view import LEAVING_ROWS
+
+    side = math.sqrt(40)
+    camera: dict[str, object] = {
+        "pixel_noise": 1.0,
+        "orientation": False,
+        "landmarks": border_landmarks((side, side)),
+    }
+    config = anonloc_env.make_config(
+        "drone-hover", n_robots=40, arena_size=(side, side), camera=camera, max_cycles=1200
+    )
+    model = SensorModel.from_config(config)
+    assert model.view is not None
+    assert model.registration is None
+    identifier = Identifier(model, 40)
+    grid = np.stack(np.meshgrid(np.arange(8), np.arange(5)), -1).reshape(-1, 2)
+    rows = np.column_stack([40.0 + 78.0 * grid[:, 0], 40.0 + 130.0 * grid[:, 1], np.zeros(40)])
+    still = Interval.exact(np.zeros((40, 2)), np.zeros(40))
+    corners = model.view.corners()
+    identifier.update(rows, footprint=corners)
+    out = rows[:, 0] < 60.0  # the first column, carried out of view
+    identifier.update(rows[~out], still, footprint=corners + np.array([60.0, 0.0]))
+    tracks = identifier.tracks
+    missed = tracks.row < 0
+    assert 0 < int(out.sum()) <= LEAVING_ROWS
+    for robot in range(40):
+        places = tracks.pos[missed & (tracks.slot == robot)]
+        # A missed track at every row carried out, and at no other.
+        np.testing.assert_allclose(np.sort(places[:, 1]), np.sort(rows[out, 1]))
+        np.testing.assert_allclose(places[:, 0], rows[out, 0][0])

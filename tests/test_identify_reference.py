@@ -132,6 +132,7 @@ CASES = {
     ),
     "headings": (_model(orientation=True, orientation_noise=math.radians(3.0)), 4, 0.5),
     "tilted": (_model(scale_spread=0.02), 5, 0.0),
+    "crowd-noise": (_model(crowd_noise=1.2), 5, 0.0),
 }
 
 
@@ -147,6 +148,20 @@ def test_identifier_matches_the_exact_posterior(model: SensorModel, n: int, fp: 
         [_distances(model, *simulate(model, n, 5, fp, seed)[:2]) for seed in range(8)]
     )
     assert np.mean(tv <= 0.01) >= 0.95, np.sort(tv)[-10:]
+
+
+def test_reference_takes_the_crowds_noise() -> None:
+    """With ``crowd_noise`` (the identifier's noise floor in a crowd) the exact reference takes
+    the detections as that much noisier, as the identifier does: the two agree within 0.01, and
+    the reference differs from the one with the noise as stated."""
+    model = _model(crowd_noise=1.2, pixel_noise=4.0)  # noisy enough for beliefs to differ
+    rows, intervals, _ = simulate(model, 4, 4, 0.0, seed=1)
+    tv = _distances(model, rows, intervals)
+    assert np.mean(tv <= 0.01) >= 0.95, np.sort(tv)[-5:]
+    crowd = exact_beliefs(model, rows, intervals)
+    stated = exact_beliefs(replace(model, crowd_noise=1.0), rows, intervals)
+    apart = [total_variation(*a, *b).max() for a, b in zip(crowd, stated, strict=True)]
+    assert max(apart) > 0.05  # 0.054
 
 
 @pytest.mark.slow

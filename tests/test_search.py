@@ -20,10 +20,17 @@ import anonloc_env
 import baselines
 from agents.conditions import ConditionRanges
 from agents.features import LinearScorer
-from agents.linear_agent import linear_spec, save_linear_agent
-from agents.linear_terms import CROWD_TERMS, LINEAR_TERMS, linear_terms
-from agents.policy import load_agent, load_model
-from agents.search import LinearChooser, SearchConfig, chooser, search
+from agents.linear_agent import LINEAR_SPEC, linear_spec, save_linear_agent
+from agents.linear_terms import CROWD_TERMS, DENSE, LINEAR_TERMS, SIZE_TERMS, linear_terms
+from agents.policy import BUNDLED_NAME, agent_file, load_agent, load_model
+from agents.search import (
+    LinearChooser,
+    SearchConfig,
+    chooser,
+    search,
+    search_ranges,
+    search_spec,
+)
 from agents.spec import AgentSpec, saved_spec
 from baselines.excitations import SwarmDuty
 from baselines.excitations.rest import RestWhenSure
@@ -263,3 +270,43 @@ def test_a_crowd_only_search_moves_only_the_crowding_terms(tmp_path: Path) -> No
     assert "crowd_pictures" in progress  # validated in a crowd too
     with pytest.raises(ValueError, match="crowd_only needs crowd"):
         SearchConfig(crowd_only=True)
+
+
+def test_a_dense_search_moves_only_the_dense_terms_from_its_start(tmp_path: Path) -> None:
+    """``dense`` gives the search the bundled agent's spec (with ``size``); ``moves="dense"``
+    keeps every other weight at the start's, draws only dense arenas and validates only in the
+    crowd, against the start."""
+    start = np.linspace(-1.0, 1.0, len(LINEAR_TERMS + SIZE_TERMS))
+    base = dataclasses.replace(LINEAR_SPEC, terms=LINEAR_TERMS + SIZE_TERMS)
+    save_linear_agent(start, tmp_path / "start.zip", base)
+    config = dataclasses.replace(
+        TINY,
+        size=True,
+        dense=True,
+        moves="dense",
+        start=str(tmp_path / "start.zip"),
+        ranges=ConditionRanges(robots=(3,), pictures=4, density=(0.5, 6.0)),
+    )
+    bundled = saved_spec(agent_file(BUNDLED_NAME))
+    assert bundled is not None
+    assert search_spec(config).terms == bundled.terms
+    assert search_spec(config).context_features == bundled.context_features
+    assert search_ranges(config).density == (DENSE, 6.0)
+    mu = search(config, tmp_path / "run", log=lambda _: None)
+    names = [t.name for t in bundled.terms]
+    moved = np.array([n.endswith("*dense") for n in names])
+    saved = start.astype(np.float32).astype(np.float64)  # the agent's file holds float32
+    assert np.array_equal(mu[~moved], np.r_[saved, np.zeros(6)])  # the start's, missing at 0
+    assert np.any(mu[moved] != 0.0)
+    header = (tmp_path / "run" / "progress.csv").read_text().splitlines()[0]
+    assert "crowd_pictures" in header
+    assert "crowd_start" in header
+    assert "free_pictures" not in header
+
+
+def test_moves_must_name_a_gate_of_the_searched_terms() -> None:
+    with pytest.raises(ValueError, match="moves must be a gate"):
+        SearchConfig(moves="dense")  # no dense terms without dense
+    with pytest.raises(ValueError, match="moves must be a gate"):
+        SearchConfig(crowd=True, crowd_only=True, moves="crowding")
+    assert SearchConfig(dense=True, moves="missing").moves == "missing"

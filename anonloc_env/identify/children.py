@@ -298,13 +298,20 @@ class Builder(NamedTuple):
         return Tracks.concat([predicted, carried]), tracks.slot[lost], logw[lost]
 
     def uniform_missed(
-        self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float
+        self,
+        live: np.ndarray,
+        prev: np.ndarray,
+        interval: Interval,
+        pix_var: float,
+        at: np.ndarray | None = None,
     ) -> Tracks:
-        """The uniform weight of robots ``live`` over the rows of ``prev``, missed in the new
-        picture: a track anchored at every row, the robot's own motion carried."""
+        """The uniform weight of robots ``live`` over the rows of ``prev`` (or over its rows
+        ``at`` only), missed in the new picture: a track anchored at every such row, the
+        robot's own motion carried."""
         model, theta_var = self.scoring.model, self.scoring.theta_var
-        slot = np.repeat(live, len(prev))
-        p_row = np.tile(np.arange(len(prev)), len(live))
+        which = np.arange(len(prev)) if at is None else at
+        slot = np.repeat(live, len(which))
+        p_row = np.tile(which, len(live))
         var_d, var_dphi = interval.variances(model.odometry_noise)
         s = model.scale if model.scale is not None else model.scale_bounds[1]
         if model.orientation:

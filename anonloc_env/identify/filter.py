@@ -276,8 +276,12 @@ class Identifier:
                 parts.append(missed_now if view is None else view.uniform_missed(missed_now))
             elif view is None:
                 build.uniform_lost(live, len(prev), unanchored)
-            else:
-                view.uniform_lost(live, prev, interval, pix_var, prior, unanchored)
+            else:  # the rows whose robot likely left the view keep a missed track
+                leaving = view.leaving(live, prev, interval, pix_var)
+                if len(leaving):
+                    missed_now = build.uniform_missed(live, prev, interval, pix_var, leaving)
+                    parts.append(view.uniform_missed(missed_now))
+                view.uniform_lost(live, prev, interval, pix_var, prior, unanchored, leaving)
         return [p for p in parts if len(p)], unanchored
 
     def _log_rows(self) -> float:

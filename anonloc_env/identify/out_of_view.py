@@ -29,6 +29,10 @@ from anonloc_env.odometry import Interval
 #: footprint, rather than out of view in it (so at its edges now): a robot whose tracks were
 #: all lost in view stays recoverable, at 4.6 nats.
 ELSEWHERE = 0.01
+#: The uniform weight missed in a picture keeps a track at the previous rows whose robot is
+#: likely out of view now (``p_in`` below this), at most ``LEAVING_ROWS`` of them.
+LEAVING_P_IN = 0.5
+LEAVING_ROWS = 32
 
 
 @dataclass(frozen=True)
@@ -118,6 +122,38 @@ class OutOfView:
             part.logw[near] += self._miss(self.footprint.p_in(part.pos[near], var[near]))
         return part
 
+    def leaving(
+        self, live: np.ndarray, prev: np.ndarray, interval: Interval, pix_var: float
+    ) -> np.ndarray:
+        """Rows of ``prev`` whose robot is likely out of view now (``p_in`` below
+        :data:`LEAVING_P_IN` for the robots ``live``' median motion), at most
+        :data:`LEAVING_ROWS`, the likeliest out first, in row order. The uniform weight missed
+        now keeps a track at each (``Builder.uniform_missed``, as it does at every row of a
+        picture of at most ``MISSED_PER_ROBOT`` rows): a robot the drift carried out of view
+        before it was identified keeps its place, rather than returning to "position unknown"
+        and coming back at any edge."""
+        if not len(live) or not len(prev):
+            return np.zeros(0, np.int64)
+        var = float(np.median(self._lost_var(live, interval, pix_var)[0]))
+        near = self.footprint.near(prev[:, :2], self._slack(var))
+        if not len(near):
+            return near
+        p_in = self.footprint.p_in(prev[near, :2], np.full(len(near), var))
+        out = p_in < LEAVING_P_IN
+        order = np.argsort(p_in[out], kind="stable")[:LEAVING_ROWS]
+        return np.sort(near[out][order])
+
+    def _lost_var(
+        self, live: np.ndarray, interval: Interval, pix_var: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(L,)`` each robot's place's variance about a previous row after ``interval`` (its
+        own motion a ring about it), and that ring's radius squared."""
+        model = self.model
+        s = model.scale_bounds[1]
+        var_d, _ = interval.variances(model.odometry_noise)
+        rho2 = s**2 * (interval.d[live, 0] ** 2 + interval.d[live, 1] ** 2)
+        return pix_var + s**2 * var_d[live] + 0.5 * rho2, rho2
+
     def uniform_lost(
         self,
         live: np.ndarray,
@@ -126,20 +162,20 @@ class OutOfView:
         pix_var: float,
         prior: kernels.Prior,
         unanchored: np.ndarray,
+        kept: np.ndarray | None = None,
     ) -> None:
         """The uniform weight of robots ``live`` over the ``prev`` rows, missed in the new
         picture, returned to "position unknown" (``unanchored``, in place): each row's robot
-        missed with ``1 - P_D p_in`` from its place, its own motion a ring about it."""
+        missed with ``1 - P_D p_in`` from its place, its own motion a ring about it; but for
+        the rows ``kept``, whose missed tracks the caller keeps."""
         base = np.zeros(len(prev))
+        if kept is not None and len(kept):
+            base[kept] = -np.inf
         if prior.links is not None:
             base = base + prior.links.ends
         if prior.row_bias is not None:
             base = base + prior.row_bias
-        model = self.model
-        s = model.scale_bounds[1]
-        var_d, _ = interval.variances(model.odometry_noise)
-        rho2 = s**2 * (interval.d[live, 0] ** 2 + interval.d[live, 1] ** 2)
-        var = pix_var + s**2 * var_d[live] + 0.5 * rho2  # (L,)
+        var, rho2 = self._lost_var(live, interval, pix_var)
         near = self.footprint.near(
             prev[:, :2], float(np.sqrt(rho2.max(initial=0.0))) + self._slack(float(var.max()))
         )

@@ -55,12 +55,14 @@ class _Weights(NamedTuple):
 
 
 def _log_weights(model: SensorModel, pictures: list[np.ndarray]) -> _Weights:
-    """The :class:`_Weights` as the identifier takes them (the same floors)."""
+    """The :class:`_Weights` as the identifier takes them (the same floors, the same
+    ``crowd_noise``)."""
     log_pd = math.log(min(model.p_detect, 1.0 - 1e-6))
     log_miss = math.log(max(1.0 - model.p_detect, 1e-6))
     log_bg = [log_background(model, len(rows)) for rows in pictures]
     extent = max((float(np.abs(r[:, :2]).max()) for r in pictures if len(r)), default=1.0)
-    pix_var = model.pixel_noise**2 + (1e-4 + 1e-6 * extent) ** 2
+    # The crowd's noise floor (``SensorModel.crowd_noise``) as the identifier takes it.
+    pix_var = (model.pixel_noise * model.crowd_noise) ** 2 + (1e-4 + 1e-6 * extent) ** 2
     return _Weights(log_pd, log_miss, log_bg, pix_var)
 
 
