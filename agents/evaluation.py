@@ -115,6 +115,7 @@ def validate_against_uniform(
     crowd: bool = False,
     player: Player | None = None,
     keys: Sequence[str] | None = None,
+    ablation_cache: dict[str, np.ndarray] | None = None,
 ) -> dict[str, Validation]:
     """``make()``'s excitation against ``ablation()`` (default ``uniform``, its no-learning
     ablation; ``uniform-rest`` for an agent that rests) on the validation condition
@@ -124,7 +125,10 @@ def validate_against_uniform(
     :data:`agents.conditions.VALIDATION_CROWD_DENSITY` robots per m² (key ``crowd``),
     ``episodes`` episodes of ``pictures`` pictures each. ``player`` plays the episodes instead
     (the same episodes: a search's pool of processes, ``agents.search``); ``keys``: only
-    these conditions (default: all of them)."""
+    these conditions (default: all of them). ``ablation_cache``: the ablation's episodes by
+    key, filled on first use and read after (a search validates many ``make`` against one
+    ablation: its episodes are played once; the caller keeps ``episodes`` and ``pictures``
+    fixed for one cache)."""
     seeds = range(VALIDATION_SEEDS, VALIDATION_SEEDS + episodes)
     makers = (make, ablation)
 
@@ -136,7 +140,14 @@ def validate_against_uniform(
 
     out = {}
     for key, scenario in validation_scenarios(crowd, pictures, keys):
-        mine, chance = ((player or here)(scenario, which, seeds, pictures) for which in (0, 1))
+        play_one = player or here
+        mine = play_one(scenario, 0, seeds, pictures)
+        if ablation_cache is not None and key in ablation_cache:
+            chance = ablation_cache[key]
+        else:
+            chance = play_one(scenario, 1, seeds, pictures)
+            if ablation_cache is not None:
+                ablation_cache[key] = chance
         out[key] = Validation(
             paired_ratio(mine[:, 0], chance[:, 0]),
             paired_ratio(mine[:, 1], chance[:, 1]),

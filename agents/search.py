@@ -258,6 +258,7 @@ def validate(
     executor: Executor | None = None,
     start: np.ndarray | None = None,
     keys: tuple[str, ...] | None = None,
+    start_cache: dict[str, np.ndarray] | None = None,
 ) -> dict[str, float]:
     """``weights`` against the search's ``start`` (default zero weights: ``uniform`` bit for
     bit; both at rest once sure, with ``rest``) on the validation condition
@@ -266,13 +267,16 @@ def validate(
     picture and energy ratios with paired 95 % intervals (keys ``free_pictures``,
     ``free_pictures_low``, ... ``swarm_energy_high``, ``crowd_...``) and the censored mean
     pictures of both (``free_mean``, ``free_start``, ...); ``weights`` of ``spec``'s terms.
-    ``executor`` plays the episodes in its processes (the same episodes; None: here)."""
+    ``executor`` plays the episodes in its processes (the same episodes; None: here).
+    ``start_cache``: the start's episodes by condition, played on the first call and reused
+    (the start never changes within a search; see
+    :func:`agents.evaluation.validate_against_uniform`)."""
     out: dict[str, float] = {}
     reference = np.zeros(len(spec.terms)) if start is None else np.asarray(start)
     ablation = chooser(reference, rest, spec)
     player = None if executor is None else pooled_player(executor, (weights, reference), rest, spec)
     validations = validate_against_uniform(
-        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player, keys
+        chooser(weights, rest, spec), episodes, pictures, ablation, crowd, player, keys, start_cache
     )
     for condition, v in validations.items():
         out[f"{condition}_mean"] = v.mean
@@ -396,6 +400,7 @@ def search(
         _write_progress(directory, history)
 
     executor = pool(config.workers)
+    start_episodes: dict[str, np.ndarray] = {}  # the start's validation, played once
 
     def validate_mu() -> dict[str, float]:
         spec = search_spec(config)
@@ -410,6 +415,7 @@ def search(
             executor,
             np.asarray(first_mu(config)),
             validation_keys(config),
+            start_episodes,
         )
 
     started = time.perf_counter()

@@ -252,12 +252,17 @@ def worst_step(
 
 
 def time_steps(
-    n: int, view_margin: float, repetitions: int = 2, pooled: bool = False
+    n: int,
+    view_margin: float,
+    repetitions: int = 2,
+    pooled: bool = False,
+    pictures: int = 12,
 ) -> list[dict[str, Any]]:
     """The fixed camera and ``drone-hover`` alternated in one process, ``repetitions`` times each,
-    after one untimed warm-up of each (the compiled kernels load at their first call); each
-    with the compiled first step without headings (``identify.first_step``, the default) and
-    with the general path it replaces (``first_step``: ``"compiled"`` or ``"general"``)."""
+    ``pictures`` pictures an episode, after one untimed warm-up of each (the compiled kernels
+    load at their first call); each with the compiled first step without headings
+    (``identify.first_step``, the default) and with the general path it replaces
+    (``first_step``: ``"compiled"`` or ``"general"``)."""
     for preset in ("default", "drone-hover"):
         worst_step(n, 3, preset, view_margin, pooled)
     rows = []
@@ -267,7 +272,7 @@ def time_steps(
             for path in ("compiled", "general"):
                 first_step.applies = applies if path == "compiled" else _never  # type: ignore[assignment]  # a switch for the timing
                 try:
-                    steps = worst_step(n, 12, preset, view_margin, pooled)
+                    steps = worst_step(n, pictures, preset, view_margin, pooled)
                 finally:
                     first_step.applies = applies  # type: ignore[assignment]  # restored
                 row = {
@@ -368,6 +373,15 @@ def main() -> None:
     )
     parser.add_argument("--worst-step", action="store_true", help="time the identifier at --n")
     parser.add_argument(
+        "--repetitions", type=int, default=2, help="--worst-step: timed episodes per condition"
+    )
+    parser.add_argument(
+        "--worst-pictures",
+        type=int,
+        default=12,
+        help="--worst-step: pictures per timed episode (the worst is the third)",
+    )
+    parser.add_argument(
         "--seed0", type=int, default=SEED0, help="first episode's seed (the rest follow it)"
     )
     parser.add_argument("--table", type=Path, nargs="*", help="print the docs' table of files")
@@ -377,7 +391,10 @@ def main() -> None:
         print(table(args.table))
         return
     if args.worst_step:
-        _write(args.out, time_steps(args.n, args.view_margin, pooled=args.pooled_motion))
+        rows = time_steps(
+            args.n, args.view_margin, args.repetitions, args.pooled_motion, args.worst_pictures
+        )
+        _write(args.out, rows)
         return
     rows = []
     choices = {"both": (False, True), "no": (False,), "yes": (True,)}[args.landmarks]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -310,3 +311,31 @@ def test_moves_must_name_a_gate_of_the_searched_terms() -> None:
     with pytest.raises(ValueError, match="moves must be a gate"):
         SearchConfig(crowd=True, crowd_only=True, moves="crowding")
     assert SearchConfig(dense=True, moves="missing").moves == "missing"
+
+
+def test_the_starts_validation_is_played_once_and_reused() -> None:
+    """A search validates ``mu`` against its unchanging start many times: with a cache the
+    start's episodes are played on the first validation only, and every ratio is the same as
+    when they are played again."""
+    from agents.conditions import Scenario
+    from agents.evaluation import validate_against_uniform
+    from agents.search_costs import play_weights
+
+    spec = search_spec(dataclasses.replace(TINY, crowd=True))
+    weights, start = np.full(len(spec.terms), 0.3), np.zeros(len(spec.terms))
+    played: list[int] = []
+
+    def player(scenario: Scenario, which: int, seeds: Sequence[int], pictures: int) -> np.ndarray:
+        played.append(which)
+        return play_weights(scenario, (weights, start)[which], seeds, pictures, None, spec)[0]
+
+    make, ablation = chooser(weights, None, spec), chooser(start, None, spec)
+    cache: dict[str, np.ndarray] = {}
+    fresh = validate_against_uniform(make, 2, 4, ablation, True, player)
+    assert played.count(1) == 3  # free, swarm and crowd: the start played each time
+    played.clear()
+    first = validate_against_uniform(make, 2, 4, ablation, True, player, None, cache)
+    second = validate_against_uniform(make, 2, 4, ablation, True, player, None, cache)
+    assert played == [0, 1, 0, 1, 0, 1, 0, 0, 0]  # the start's episodes played once
+    assert first == fresh
+    assert second == fresh

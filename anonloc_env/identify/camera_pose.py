@@ -288,7 +288,8 @@ class Registration:
             return shift
         offset = target[j] - moved[i]
         spread = sigma[j] ** 2
-        width = max(2.0 * self.prior.change[2], 2.0 * float(np.median(sigma[j])))
+        typical = float(np.median(sigma[j]))
+        width = max(2.0 * self.prior.change[2], 2.0 * typical)
         for _ in range(12):
             gap = np.sum((offset - shift) ** 2, axis=1)
             weight = np.exp(-0.5 * gap / (width**2 + spread)) / (width**2 + spread)
@@ -296,7 +297,7 @@ class Registration:
             if total <= 0.0:
                 break
             shift = weight @ offset / total
-            width = max(0.7 * width, float(np.median(sigma[j])))
+            width = max(0.7 * width, typical)
         # Never further than the camera's change may plausibly take it: a mode one robot
         # spacing away is another robot's, not the camera's.
         limit = 3.0 * self.prior.change[2]

@@ -200,13 +200,13 @@ def known_compiled(
     n = len(interval.d)
     worst = worst_variance(np.arange(n), interval, model, pix_var)
     index, out = fused.known_children(
-        np.stack([sub.slot, lo, hi]).astype(np.int64),
+        np.stack([sub.slot, lo, hi]).astype(np.int64, copy=False),  # fresh: one copy
         np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
         np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
         np.ascontiguousarray(s, dtype=np.float64),
         np.stack([interval.dphi, worst, var_d, var_dphi]),
         np.ascontiguousarray(interval.d, dtype=np.float64),
-        cand.astype(np.int64),
+        np.ascontiguousarray(cand, dtype=np.int64),  # read only: copied only if it must be
         np.ascontiguousarray(rows, dtype=np.float64),
         np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
         bool(model.orientation),
@@ -257,7 +257,7 @@ def _finish_compiled(
     log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
     theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
     keep, logw = fused.finish_known(
-        slot.astype(np.int64),
+        np.ascontiguousarray(slot, dtype=np.int64),  # read only: slot is fresh
         np.ascontiguousarray(rows[cand, 2]),
         child.loglik,
         theta,
