@@ -23,7 +23,7 @@ from agents.candidates import CandidateChooser
 from agents.spec import AgentSpec
 from anonloc_env.actions import to_commands
 from anonloc_env.env import AnonLocEnv, ArrayStep
-from anonloc_env.rewards import energy
+from anonloc_env.rewards import EnergyCost, energy
 from baselines.active import ScoringJob
 from baselines.excitations import SwarmDuty
 from baselines.localizers import BayesLocalizer
@@ -74,6 +74,9 @@ class Crew:
         self._step: Step | None = None
         self._advanced: tuple[ArrayStep, np.ndarray, np.ndarray, int] | None = None
         self._belief_true = np.zeros(self.n)
+        # An EnergyCost reward is computed here, once per decision from the commands of all
+        # its control steps (the same bits as the env's step by step), not by the env.
+        self._energy_reward = type(env.reward_fn) is EnergyCost
 
     def reset(self, seed: int | None) -> dict[str, np.ndarray]:
         """Start an episode: the env is reset with ``seed``; the robots' own random streams
@@ -124,23 +127,31 @@ class Crew:
         spent = np.zeros(self.n)
         dt = self.config.dt
         sent: list[np.ndarray] = []
+        env_rewards = not self._energy_reward
         self.chooser.defer = defer
         try:
             while True:  # the env's arrays, never its per-agent dicts (the same bits)
                 v, w = self.team.excitation.commands(self._step, dt)
                 env_actions = self.team.command(v, w)
                 sent.append(env_actions)
-                result = self.env.step_arrays(env_actions)
-                reward += result.rewards
+                result = self.env.step_arrays(env_actions, rewards=env_rewards)
+                if env_rewards:
+                    reward += result.rewards
                 step = self.team.take(result.seen)
                 self._step = step
                 if step.new_picture or result.truncated:
                     break
         finally:
             self.chooser.defer = False
-        # Each step's wheel travel, computed for all steps at once, added up step by step.
-        for travel in energy(self.config, *to_commands(np.stack(sent), self.config.robot)):
+        # Each step's wheel travel, computed for all steps at once, added up step by step; so
+        # is the EnergyCost reward (EnergyCost.__call__: minus the weighted travel).
+        travels = energy(self.config, *to_commands(np.stack(sent), self.config.robot))
+        for travel in travels:
             spent += travel
+        if self._energy_reward:
+            travels *= -self.config.reward.energy_weight
+            for cost in travels:
+                reward += cost
         self._advanced = (result, reward, spent, len(sent))
         return self.chooser.job
 

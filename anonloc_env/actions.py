@@ -13,7 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.config import RobotConfig
+
+_FLOAT64 = np.dtype(np.float64)
 
 
 def to_commands(actions: np.ndarray, robot: RobotConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -25,6 +28,18 @@ def to_commands(actions: np.ndarray, robot: RobotConfig) -> tuple[np.ndarray, np
 def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
     """Map commands ``v`` (m/s) and ``w`` (rad/s) to float32 actions ``(..., 2)``, clipped to
     ``[-1, 1]`` (a command beyond the robot's limits is saturated, as the env would)."""
+    if (  # a team's (R,) commands, every control step: one compiled call, the same floats
+        type(v) is np.ndarray
+        and type(w) is np.ndarray
+        and v.dtype == _FLOAT64
+        and w.dtype == _FLOAT64
+        and v.ndim == 1
+        and v.shape == w.shape
+        and compiled.mode() is not None
+    ):
+        out = np.empty((len(v), 2), np.float32)
+        compiled.actions_of(v, w, robot.v_max, robot.omega_max, out)
+        return out
     v = np.asarray(v, dtype=np.float64)
     a = np.empty((*v.shape, 2))
     np.divide(v, robot.v_max, out=a[..., 0])
@@ -83,6 +98,12 @@ def check_action_array(actions: Any, n: int) -> np.ndarray:
             f"{array.shape} of {array.dtype}"
         )
     # Always a copy: the caller's array is not clipped.
+    if array.dtype in _JOINABLE and compiled.mode() is not None:  # one compiled call
+        out = np.empty((n, 2))
+        bad = compiled.checked_actions(array, out)
+        if bad >= 0:
+            raise ValueError(f"action of robot {bad} is not finite: {out[bad].tolist()}")
+        return out
     return _finite_clipped(array.astype(np.float64), lambda i: f"robot {i}")
 
 

@@ -120,6 +120,55 @@ def _minimum(a: float, b: float) -> float:
 
 
 @jit
+def actions_of(
+    v: np.ndarray, w: np.ndarray, v_max: float, omega_max: float, out: np.ndarray
+) -> None:
+    """``anonloc_env.actions.to_actions`` of ``(N,)`` commands ``v``, ``w`` into ``out``
+    ``(N, 2)`` float32: each divided by its limit, clipped to ``[-1, 1]`` with numpy's NaN rule,
+    rounded to float32 as ``astype`` rounds."""
+    for k in range(v.shape[0]):
+        out[k, 0] = _minimum(maximum(v[k] / v_max, -1.0), 1.0)
+        out[k, 1] = _minimum(maximum(w[k] / omega_max, -1.0), 1.0)
+
+
+@jit
+def checked_actions(actions: np.ndarray, out: np.ndarray) -> int:
+    """``anonloc_env.actions.check_action_array``'s work on ``(N, 2)`` float actions: ``out``
+    ``(N, 2)`` float64 their values, clipped to ``[-1, 1]`` where every value is finite (returns
+    -1), else unclipped and the first row holding a non-finite value is returned."""
+    for k in range(actions.shape[0]):
+        out[k, 0] = actions[k, 0]
+        out[k, 1] = actions[k, 1]
+    for k in range(out.shape[0]):
+        if not (math.isfinite(out[k, 0]) and math.isfinite(out[k, 1])):
+            return k
+    for k in range(out.shape[0]):
+        out[k, 0] = _minimum(maximum(out[k, 0], -1.0), 1.0)
+        out[k, 1] = _minimum(maximum(out[k, 1], -1.0), 1.0)
+    return -1
+
+
+@jit
+def scaled(v: np.ndarray, w: np.ndarray, inv_h: float, h: float, out: np.ndarray) -> None:
+    """``World.step``'s sub-step quantities of the commands ``v``, ``w`` ``(N,)`` into ``out``
+    ``(3, N)``: the force ``v / h`` (as ``v * inv_h``), the free move ``v h``, the turn ``w h``."""
+    for k in range(v.shape[0]):
+        out[0, k] = v[k] * inv_h
+        out[1, k] = v[k] * h
+        out[2, k] = w[k] * h
+
+
+@jit
+def bumped(worst: np.ndarray, tolerance: float) -> np.ndarray:
+    """``World._bumped``: ``(N,)`` whether the larger of each row of ``worst`` ``(N, 2)`` exceeds
+    ``tolerance`` (NaN does not)."""
+    out = np.empty(worst.shape[0], dtype=np.bool_)
+    for k in range(worst.shape[0]):
+        out[k] = maximum(worst[k, 0], worst[k, 1]) > tolerance
+    return out
+
+
+@jit
 def _clamp(state: np.ndarray, n: int, low: np.ndarray, high: np.ndarray) -> None:
     """``World._clamp_to_arena``: every centre within its limits (``low`` ``(N, 1)``, ``high``
     ``(N, 2)``)."""
@@ -423,17 +472,25 @@ def integrate(
     odo: np.ndarray,
     forward: np.ndarray,
     turned: np.ndarray,
-    distance_factor: np.ndarray,
-    turn_factor: np.ndarray,
+    normals: np.ndarray,
+    noise: float,
     noisy: bool,
     step_ds: np.ndarray,
     step_dth: np.ndarray,
 ) -> None:
     """``Odometry.integrate``'s dead reckoning: ``odo`` ``(N, 3)`` own-frame ``(x, y, phi)``
-    advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (times the noise factors
-    if ``noisy``), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (if ``noisy``, times the
+    noise factors ``1 + noise * z`` of the standard normals ``normals`` ``(2, N)``: distance,
+    then turn), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    n = odo.shape[0]
+    distance_factor = np.empty(n)
+    turn_factor = np.empty(n)
+    if noisy:
+        for k in range(n):
+            distance_factor[k] = 1.0 + noise * normals[0, k]
+            turn_factor[k] = 1.0 + noise * normals[1, k]
     for s in range(forward.shape[0]):
-        for k in range(odo.shape[0]):
+        for k in range(n):
             ds, dth = forward[s, k], turned[s, k]
             if noisy:
                 ds = ds * distance_factor[k]

@@ -23,7 +23,7 @@ from anonloc_env.geometry import wrap_angle
 from anonloc_env.observation import ObservationBuilder, observation_space, space_copy
 from anonloc_env.odometry import Interval, Odometry
 from anonloc_env.presets import PRESETS
-from anonloc_env.rewards import InformationGain, RewardFunction, StepContext
+from anonloc_env.rewards import EnergyCost, InformationGain, RewardFunction, StepContext
 from anonloc_env.robot_view import Step
 from anonloc_env.schedule import PictureSchedule
 from anonloc_env.world import WheelTravel, World, check_poses, random_poses
@@ -344,19 +344,29 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    def step_arrays(self, actions: np.ndarray) -> ArrayStep:
+    def step_arrays(self, actions: np.ndarray, rewards: bool = True) -> ArrayStep:
         """:meth:`step` for callers that hold arrays, not per-agent dicts (the learning path:
         ``agents.crew``): the same episode to the bit, with no dict built.
 
         Args:
             actions: ``(N, 2)`` actions in robot order (clipped to ``[-1, 1]``).
+            rewards: False: the reward function is not called and the step's ``rewards`` are
+                zeros, for a caller that computes them itself from the actions, every step of an
+                interval at once (``agents.crew`` with :class:`~anonloc_env.rewards.EnergyCost`).
+                Only an ``EnergyCost`` reward may be skipped: it keeps nothing between steps.
 
         Raises:
-            ValueError: ``actions`` is not ``(N, 2)`` or holds a non-finite value.
+            ValueError: ``actions`` is not ``(N, 2)`` or holds a non-finite value, or
+                ``rewards`` is False and the reward function is not an ``EnergyCost``.
         """
         self._check_running()
+        if not rewards and type(self.reward_fn) is not EnergyCost:
+            raise ValueError(
+                "rewards=False skips the reward function, which only EnergyCost allows (it keeps "
+                f"nothing between steps); this env's is {type(self.reward_fn).__name__}"
+            )
         commands = check_action_array(actions, len(self.agents))
-        motion, new_picture, _, reward_values, truncated = self._advance(commands)
+        motion, new_picture, _, reward_values, truncated = self._advance(commands, rewards)
         seen = self.builder.seen(new_picture, motion.contact)
         if self.render_mode == "human":
             self.render()
@@ -371,10 +381,12 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
 
-    def _advance(self, commands: np.ndarray) -> tuple[WheelTravel, bool, float, np.ndarray, bool]:
+    def _advance(
+        self, commands: np.ndarray, rewards: bool = True
+    ) -> tuple[WheelTravel, bool, float, np.ndarray, bool]:
         """One step from the clipped ``(N, 2)`` actions (scaled here, in place): the wheels'
-        motion, whether a picture was taken, the time, the rewards and whether the episode is
-        over (``self.agents`` is then emptied)."""
+        motion, whether a picture was taken, the time, the rewards (zeros without ``rewards``)
+        and whether the episode is over (``self.agents`` is then emptied)."""
         world = self.world
         assert world is not None
         commands *= self._command_scale
@@ -386,6 +398,11 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
         between = self._maybe_take_picture(time)
         new_picture = between is not None
         self.builder.record(self.odometry.since_picture, time)
+        truncated = self.steps >= self.max_cycles
+        if truncated:
+            self.agents = []
+        if not rewards:
+            return motion, new_picture, time, np.zeros(len(v)), truncated
         context = StepContext(
             config=self.config,
             time=time,
@@ -397,9 +414,6 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             observed=functools.partial(self.builder.seen, new_picture, motion.contact),
         )
         reward_values = np.asarray(self.reward_fn(context), dtype=np.float64)
-        truncated = self.steps >= self.max_cycles
-        if truncated:
-            self.agents = []
         return motion, new_picture, time, reward_values, truncated
 
     def _maybe_take_picture(self, time: float) -> Interval | None:

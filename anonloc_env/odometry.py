@@ -16,6 +16,9 @@ import numpy as np
 from anonloc_env import compiled
 from anonloc_env.world import WheelTravel
 
+_FLOAT64 = np.dtype(np.float64)
+_NO_NORMALS = np.zeros((2, 0))  # what the compiled step reads without noise (nothing)
+
 
 @dataclass(frozen=True)
 class Interval:
@@ -140,11 +143,12 @@ class IntervalStatistics:
         """One control step from the robots' own odometry: ``(R, 3)`` ``(dx, dy, dphi)`` since
         the last picture ``before`` and ``now`` the step, contacts ``bumper`` ``(R,)`` during it
         at commanded ``speed`` ``(R,)`` (m/s)."""
-        arrays = (before, now, speed)
         if (
-            compiled.mode() is not None
-            and bumper.dtype == np.bool_
-            and all(a.dtype == np.float64 for a in arrays)
+            bumper.dtype == np.bool_
+            and before.dtype == _FLOAT64
+            and now.dtype == _FLOAT64
+            and speed.dtype == _FLOAT64
+            and compiled.mode() is not None
         ):  # the same floats, one call
             bounds = np.array([self.v_max, self.dt])
             sums, push_sum = self._sums, self.push_sum
@@ -222,18 +226,18 @@ class Odometry:
             who = np.flatnonzero(motion.contact)
             self.stats.add_contacts(who, speed[who], self.since_picture[who, 2])
         noisy = self.noise > 0.0
-        if noisy:
-            distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
         odo = self.since_picture
         if compiled.mode() is not None:  # the same floats in one call
-            step_ds, step_dth = np.zeros(self.n), np.zeros(self.n)
-            factors = (distance_factor, turn_factor) if noisy else (step_ds, step_dth)
+            normals = rng.standard_normal((2, self.n)) if noisy else _NO_NORMALS
+            step_ds, step_dth = np.zeros((2, self.n))
             compiled.integrate(
-                odo, motion.forward, motion.turned, *factors, noisy, step_ds, step_dth
+                odo, motion.forward, motion.turned, normals, self.noise, noisy, step_ds, step_dth
             )
             if stats:
                 self.stats.add_step(step_ds, step_dth)
             return
+        if noisy:
+            distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))
         x, y, phi = odo[:, 0], odo[:, 1], odo[:, 2]  # column views, updated in place
         if stats:
             step_ds = np.zeros(self.n)  # this control step's distance and turn, all sub-steps

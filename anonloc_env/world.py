@@ -267,11 +267,13 @@ class World:
         coordinates), through views of the state array that goes back to pymunk.
         """
         h = self.substep_dt
+        if self.compiled is not None:
+            scaled = np.empty((3, self.n))  # the three lines below, in one compiled call
+            compiled.scaled(v, w, self._inv_h, h, scaled)
+            return self._step_compiled(scaled[0], scaled[1], scaled[2], self.compiled)
         speed = v * self._inv_h  # the force that gives ``v`` in one sub-step (mass 1)
         travel = v * h  # the free move along the heading in one sub-step
         turn = w * h
-        if self.compiled is not None:
-            return self._step_compiled(speed, travel, turn, self.compiled)
         z, theta = self._z, self._theta
         forward = np.empty((self.substeps, self.n))
         turned = np.empty((self.substeps, self.n))
@@ -338,7 +340,7 @@ class World:
                 separator.separate_compiled(ours, spare, low, high, fused)
             kernels.record(state, ours, n, heading, travel, forward[k], turned[k], worst, fused)
         self.poses = self._pose_rows.copy()
-        return WheelTravel(forward, turned, self._bumped(worst))
+        return WheelTravel(forward, turned, kernels.bumped(worst, self._bump_tolerance))
 
     def _bumped(self, worst: np.ndarray) -> np.ndarray:
         """``(N,)`` whether a robot's largest gap ``worst`` ``(N, 2)`` (along, across) exceeds

@@ -85,3 +85,57 @@ def test_step_arrays_checks_its_actions_before_any_change() -> None:
     actions = np.full((3, 2), 3.0)
     env.step_arrays(actions)
     assert (actions == 3.0).all()  # clipped in a copy, not in the caller's array
+
+
+def test_energy_rewards_may_be_left_to_the_caller() -> None:
+    """``rewards=False`` skips an ``EnergyCost`` (zeros, the same episode) and refuses a reward
+    that keeps state between steps."""
+    config = anonloc_env.make_config(**NOISY)
+    runs = []
+    for rewards in (True, False):
+        env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
+        env.reset(seed=4)
+        rng = np.random.default_rng(4)
+        steps = [env.step_arrays(rng.uniform(-1, 1, (7, 2)), rewards=rewards) for _ in range(40)]
+        runs.append((steps, env.state()))
+    (kept, kept_state), (skipped, skipped_state) = runs
+    np.testing.assert_array_equal(kept_state, skipped_state)
+    for a, b in zip(kept, skipped, strict=True):
+        np.testing.assert_array_equal(a.seen.odometry, b.seen.odometry)
+        assert (b.rewards == 0.0).all()
+    assert all((a.rewards < 0.0).any() for a in kept)
+    env = anonloc_env.AnonLocEnv(config)  # InformationGain
+    env.reset(seed=4)
+    with pytest.raises(ValueError, match=r"only EnergyCost.*InformationGain"):
+        env.step_arrays(np.zeros((7, 2)), rewards=False)
+    assert env.steps == 0
+
+
+def test_the_crews_energy_rewards_are_the_envs() -> None:
+    """The crew adds up an ``EnergyCost`` reward itself, once per decision: the same bits as
+    the env's step by step (a subclass of ``EnergyCost`` keeps the env's path)."""
+    pytest.importorskip("stable_baselines3")
+    from agents.vec import AnonLocVecEnv
+
+    class EnvEnergyCost(anonloc_env.EnergyCost):
+        """Computed by the env: the crew only takes over an ``EnergyCost`` itself."""
+
+    config = anonloc_env.make_config(**{**NOISY, "reward": {"energy_weight": 0.7}})
+    rewards = []
+    for reward_fn in (anonloc_env.EnergyCost, EnvEnergyCost):
+        vec = AnonLocVecEnv(
+            config,
+            n_envs=2,
+            make_env=lambda cfg, r=reward_fn: anonloc_env.AnonLocEnv(cfg, reward_fn=r()),
+        )
+        assert vec.crews[0]._energy_reward == (reward_fn is anonloc_env.EnergyCost)
+        vec.seed(2)
+        vec.reset()
+        rng = np.random.default_rng(2)
+        got = []
+        for _ in range(25):
+            vec.step_async(rng.integers(0, 8, vec.num_envs))
+            got.append(vec.step_wait()[1])
+        rewards.append(np.array(got))
+    np.testing.assert_array_equal(rewards[0], rewards[1])
+    assert (rewards[0] != 0.0).any()

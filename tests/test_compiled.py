@@ -265,3 +265,40 @@ def test_the_leave_out_sums_are_numpys(request: pytest.FixtureRequest) -> None:
     request.getfixturevalue("numpy_only")
     for case, got in zip(cases, fast, strict=True):
         np.testing.assert_array_equal(got, _leave_out_sums(*case))
+
+
+def _actions_both_ways(seed: int) -> list[object]:
+    """``to_actions`` and ``check_action_array`` of commands and actions with NaN, infinities,
+    signed zeros, subnormals and values past the limits: every array's bytes, every error."""
+    from anonloc_env.actions import check_action_array, to_actions
+
+    robot = RobotConfig()
+    special = [np.nan, np.inf, -np.inf, 0.0, -0.0, 5e-324, 1e308, -1e308, 1.0, -1.0]
+    special += [robot.v_max, -robot.omega_max, np.nextafter(1.0, 2.0)]
+    rng = np.random.default_rng(seed)
+    out: list[object] = []
+    for case in range(300):
+        n = int(rng.integers(0, 12))
+        v, w = rng.normal(scale=float(rng.choice([0.05, 1.0, 1e3])), size=(2, n))
+        actions = rng.normal(scale=float(rng.choice([0.3, 3.0])), size=(n, 2))
+        if n and case % 2:
+            v[rng.integers(0, n)], w[rng.integers(0, n)] = rng.choice(special, 2)
+            actions[rng.integers(0, n), rng.integers(0, 2)] = rng.choice(special)
+        out.append(to_actions(v, w, robot).tobytes())
+        for given in (actions, actions.astype(np.float32), np.asfortranarray(actions)):
+            try:
+                out.append(check_action_array(given, n).tobytes())
+            except ValueError as error:
+                out.append(str(error))
+    return out
+
+
+def test_actions_are_converted_and_checked_as_numpy_does(request: pytest.FixtureRequest) -> None:
+    """The commands' actions (``to_actions``) and the env's check of an action array, one
+    compiled call each: numpy's bytes and errors."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        fast = _actions_both_ways(7)
+        request.getfixturevalue("numpy_only")
+        plain = _actions_both_ways(7)
+    assert fast == plain
+    assert any(isinstance(x, str) for x in plain)  # some were refused
