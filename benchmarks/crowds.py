@@ -211,17 +211,17 @@ def without_escape(
     return {**extra, **{name: functools.partial(old, name) for name in names}}
 
 
-#: Decision rules scored beside ``bayes``'s own (``--rules``; ``baselines.decisions``):
-#: ``(keep, settle, release)``. The decisions never reach the motion (every excitation reads
-#: beliefs), so each rule is scored on the very episodes ``bayes`` plays. ``threshold`` is the
-#: plain rule (``bayes``'s own in open space, and in a crowd before the tenth round).
-RULES: dict[str, tuple[float | None, int | None, float | None]] = {
-    "threshold": (None, None, None),
-    "hold 0.9": (0.9, None, None),
-    "hold 0.9, release 0.02": (0.9, None, 0.02),
-    "hold 0.9, release 0.05": (0.9, None, 0.05),
-    "hold 0.9, release 0.1": (0.9, None, 0.1),
-    "hold 0.9, release 0.2": (0.9, None, 0.2),
+#: Decision rules scored beside ``bayes``'s own (``--rules``; ``baselines.decisions``): the
+#: keyword arguments of ``Decisions`` besides the threshold. The decisions never reach the motion
+#: (every excitation reads beliefs), so each rule is scored on the very episodes ``bayes`` plays.
+#: ``threshold`` is the plain rule (``bayes``'s own in open space, and in a crowd before the tenth
+#: round); ``hold 0.9, release 0.05`` the tenth round's default in a crowd, ``pressed 0.8`` the
+#: eleventh's (``Decisions.crowd``).
+RULES: dict[str, dict[str, float]] = {
+    "threshold": {},
+    "hold 0.9, release 0.05": {"keep": 0.9, "release": 0.05},
+    "pressed 0.8": {"keep": 0.9, "release": 0.05, "pressed_keep": 0.8},
+    "pressed 0.7": {"keep": 0.9, "release": 0.05, "pressed_keep": 0.7},
 }
 
 
@@ -238,7 +238,7 @@ def play(
     played = Played(EpisodeResult(seed, env.config.n_robots, []))
     team = baselines.make_team("bayes", env, excitation=make_excitation(name, extra or {}))
     beliefs = team.beliefs
-    deciders = {rule: Decisions(THRESHOLD, *RULES[rule]) for rule in rules}
+    deciders = {rule: Decisions(THRESHOLD, **RULES[rule]) for rule in rules}
     played.rules = {rule: [] for rule in rules}
 
     def noted(listener: str | None = None) -> np.ndarray:

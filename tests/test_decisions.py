@@ -14,7 +14,13 @@ import anonloc_env
 import baselines
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
-from baselines.decisions import CROWD_KEEP, CROWD_RELEASE, Decisions, in_crowd
+from baselines.decisions import (
+    CROWD_KEEP,
+    CROWD_PRESSED_KEEP,
+    CROWD_RELEASE,
+    Decisions,
+    in_crowd,
+)
 from baselines.runner import run_episode
 from benchmarks.crowds import RULES, THRESHOLD, load_recorded, play, score_cell
 from benchmarks.excitations import scenario
@@ -24,6 +30,10 @@ DATA = Path(__file__).parent / "data"
 FALL = DATA / "crowd_fall.npz"
 #: ``greedy``, N = 100 at 4 per m^2, tuning seed 700 (see tests/test_crowds.py).
 PRESSED = DATA / "crowd_pressed.npz"
+#: ``greedy``, N = 30 at 6 per m^2, tuning seed 700, 16 pictures: ``python -m benchmarks.crowds
+#: record tests/data/crowd_pressed6.npz --density 6 --robots 30 --excitation greedy --seed 700
+#: --pictures 16``.
+PRESSED6 = DATA / "crowd_pressed6.npz"
 
 
 def _decide(path: Path, rules: dict[str, Decisions]) -> tuple[dict[str, list[np.ndarray]], list]:
@@ -132,6 +142,9 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
         ({"settle": 1}, "settle"),
         ({"release": 0.05}, "release"),
         ({"keep": 0.9, "release": 0.0}, "release"),
+        ({"pressed_keep": 0.8}, "pressed_keep"),
+        ({"keep": 0.9, "pressed_keep": 0.95}, "pressed_keep"),
+        ({"keep": 0.9, "pressed_keep": 0.5}, "pressed_keep"),
     ],
 )
 def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> None:
@@ -202,6 +215,7 @@ def test_bayes_holds_with_the_release_in_a_crowd_only() -> None:
         team = baselines.make_team("bayes", env, excitation="uniform")
         rule = team.localizer.decisions
         assert (rule.keep, rule.release, rule.only_in_crowd) == (CROWD_KEEP, CROWD_RELEASE, True)
+        assert rule.pressed_keep == CROWD_PRESSED_KEEP
         plain = baselines.make_team("bayes", env, excitation="uniform", keep=THRESHOLD)
         assert plain.localizer.decisions.plain
         ours = run_episode(env, team, 700, max_pictures=12)
@@ -222,3 +236,32 @@ def test_the_crowds_hold_only_where_it_was_measured() -> None:
     assert not in_crowd(SensorModel.from_config(missing))
     drone = anonloc_env.make_config("drone-hover", n_robots=40, arena_size=(4.0, 4.0))
     assert not in_crowd(SensorModel.from_config(drone))  # 2.5 per m^2, a moving camera
+
+
+def test_pressed_keep_holds_pressed_robots_lower() -> None:
+    """With ``pressed_keep`` a robot held below ``keep`` is pressed now (pushed in the newest
+    interval and the one before) and its top belief is at least ``pressed_keep``. On the recorded
+    ``greedy`` episode at 6 per m^2 the hold with the release loses 4 right decisions and holds
+    6; with the pressed robots held down to 0.8 it loses 2 and holds 11 (3 of them below 0.9),
+    1 decision wrong either way. On the two episodes at 4 per m^2 it changes nothing."""
+    config, result = load_recorded(str(PRESSED6))
+    identifier = Identifier(SensorModel.from_config(config), result.n_robots)
+    rule, low = Decisions(keep=0.9, release=0.05, pressed_keep=0.8), 0
+    for rows, interval in zip(result.pictures, [None, *result.intervals], strict=False):
+        identifier.update(rows, interval)
+        belief = identifier.belief()
+        now, top = rule.decide(identifier, belief), belief.max(axis=1)
+        below = (now >= 0) & (top < 0.9)
+        assert np.all(identifier.pushed_run[below] >= 2)
+        assert np.all(top[below] >= 0.8)
+        low += int(below.sum())
+    assert low == 3
+    for path, lost, held in ((PRESSED6, (4, 2), (6, 11)), (FALL, (2, 2), (17, 17))):
+        rules = {
+            "release": Decisions(keep=0.9, release=0.05),
+            "pressed": Decisions(keep=0.9, release=0.05, pressed_keep=0.8),
+        }
+        found, true = _decide(path, rules)
+        assert (_lost(found["release"], true), _lost(found["pressed"], true)) == lost
+        assert _wrong(found["release"], true) == _wrong(found["pressed"], true)
+        assert (rules["release"].held, rules["pressed"].held) == held
