@@ -472,6 +472,30 @@ def _open(
     return SearchState(**saved["state"]), saved["history"]
 
 
+def saved_config(directory: Path, **changes: Any) -> SearchConfig:
+    """The config of the search saved in ``directory`` (its ``search.json``), with ``changes``
+    (fields of :class:`SearchConfig`) applied: what ``anonloc search OUT --resume`` continues
+    with, the options given on its command line replacing the saved ones (:func:`search` then
+    refuses any but ``workers`` and ``minutes`` that differs).
+
+    Raises:
+        FileNotFoundError: no search in ``directory``.
+        ValueError: a saved field or a change is not a valid :class:`SearchConfig` field.
+    """
+    path = Path(directory) / "search.json"
+    if not path.exists():
+        raise FileNotFoundError(f"no search to resume in {directory}")
+    saved = dict(json.loads(path.read_text())["config"])
+    ranges: dict[str, Any] = {
+        k: tuple(v) if isinstance(v, list) else v for k, v in saved.pop("ranges").items()
+    }
+    known = {f.name for f in dataclasses.fields(SearchConfig)}
+    unknown = sorted((set(saved) | set(changes)) - known)
+    if unknown:
+        raise ValueError(f"not fields of SearchConfig: {unknown}")
+    return SearchConfig(**{**saved, "ranges": ConditionRanges(**ranges), **changes})
+
+
 def _config_json(config: SearchConfig) -> dict[str, Any]:
     data: dict[str, Any] = json.loads(json.dumps(dataclasses.asdict(config)))
     return data

@@ -423,11 +423,16 @@ SEARCH_FIELDS = config_fields("agents", "search.py", "SearchConfig")
 @app.command()
 @with_config_options(SEARCH_FIELDS, skip=set())
 def search(
+    context: typer.Context,
     out: Annotated[
         Path, typer.Argument(help="The search's folder: search.json, progress.csv, agent.zip.")
     ],
     resume: Annotated[
-        bool, typer.Option(help="Continue the search in OUT (with its own settings).")
+        bool,
+        typer.Option(
+            help="Continue the search in OUT with its own settings (the options given here "
+            "replace them; any but --workers and --minutes that differs is refused)."
+        ),
     ] = False,
     quiet: Quiet = False,
     verbose: Verbose = 0,
@@ -444,7 +449,20 @@ def search(
     with failures_reported(verbose):
         from anonloc_cli import learning
 
-        learning.search(out=out, resume=resume, quiet=quiet, config=config or {})
+        learning.search(
+            out=out, resume=resume, quiet=quiet, config=config or {}, given=given_options(context)
+        )
+
+
+def given_options(context: typer.Context) -> set[str]:
+    """The names of the command's parameters that its command line (or the environment) gave,
+    not their defaults."""
+    sources = {name: context.get_parameter_source(name) for name in context.params}
+    return {
+        name
+        for name, source in sources.items()
+        if source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
+    }
 
 
 @app.command(name="eval")

@@ -106,15 +106,28 @@ def train(
     return 0
 
 
-def search(*, out: Path, resume: bool, quiet: bool, config: dict[str, Any]) -> None:
+def search(
+    *,
+    out: Path,
+    resume: bool,
+    quiet: bool,
+    config: dict[str, Any],
+    given: set[str] | None = None,
+) -> None:
     """Run (or resume) a search of a linear agent in ``out`` (:func:`agents.search.search`);
-    ``config``: the fields of :class:`agents.search.SearchConfig` (a resume checks that they
-    are the search's own)."""
+    ``config``: the fields of :class:`agents.search.SearchConfig`; ``given``: the names of those
+    the command line gave (None: all). A resume continues with the saved config, the given
+    fields replacing its own (the search refuses any but ``workers`` and ``minutes`` that
+    differs)."""
     _rl_modules()
     from agents import search as module
 
     try:
-        settings = module.SearchConfig(**config)
+        if resume:
+            names = set(config) if given is None else given & set(config)
+            settings = module.saved_config(out, **{name: config[name] for name in names})
+        else:
+            settings = module.SearchConfig(**config)
         module.search(settings, out, log=(lambda _: None) if quiet else echo, resume=resume)
     except (ValueError, TypeError, FileExistsError, FileNotFoundError) as error:
         raise InputError(str(error)) from None

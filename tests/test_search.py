@@ -205,6 +205,15 @@ def test_anonloc_search_runs_as_users_run_it(tmp_path: Path) -> None:
     again = run_script("search", out, *small)
     assert again.returncode != 0
     assert "holds a search" in again.stderr
+    # --resume alone continues with the search's own settings (the options given replace
+    # them, and one that changes what it finds is refused, naming the saved ones)
+    saved = json.loads((out / "search.json").read_text())
+    resumed = run_script("search", out, "--resume", "--workers", "1")
+    assert resumed.returncode == 0, resumed.stderr
+    assert json.loads((out / "search.json").read_text())["history"] == saved["history"]
+    changed = run_script("search", out, "--resume", "--pairs", "2")
+    assert changed.returncode != 0
+    assert "another config" in changed.stderr
     bad = run_script("search", tmp_path / "other", "--pairs", "0")
     assert bad.returncode != 0
     assert "pairs" in bad.stderr
@@ -339,3 +348,18 @@ def test_the_starts_validation_is_played_once_and_reused() -> None:
     assert played == [0, 1, 0, 1, 0, 1, 0, 0, 0]  # the start's episodes played once
     assert first == fresh
     assert second == fresh
+
+
+def test_a_saved_search_config_is_read_back_with_changes(tmp_path: Path) -> None:
+    """``saved_config`` gives the config a search saved (its ranges' tuples included), with the
+    changes asked for; what is not a field is refused."""
+    from agents.search import saved_config
+
+    config = dataclasses.replace(TINY, generations=1, seed=3, rest=0.99)
+    search(config, tmp_path / "run", log=lambda _: None)
+    assert saved_config(tmp_path / "run") == config
+    assert saved_config(tmp_path / "run", workers=2) == dataclasses.replace(config, workers=2)
+    with pytest.raises(ValueError, match="not fields of SearchConfig"):
+        saved_config(tmp_path / "run", colour="red")
+    with pytest.raises(FileNotFoundError, match="no search to resume"):
+        saved_config(tmp_path / "none")
