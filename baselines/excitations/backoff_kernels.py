@@ -1,6 +1,6 @@
 """Compiled forms of :class:`~baselines.excitations.BackOff`'s numpy work at every control step
-(numba, through :func:`anonloc_env.compiled.jit`; used only where
-:func:`anonloc_env.compiled.mode` is not None): which robots start a back-off, and the commands
+(numba, marked with ``anonloc_env.compiled.jit``; used only where
+``anonloc_env.compiled.mode()`` is not None): which robots start a back-off, and the commands
 with those of the robots reversing replaced. The same floats as the numpy lines they stand for
 (``tests/test_backoff_kernels.py`` runs both)."""
 
