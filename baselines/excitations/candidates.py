@@ -12,6 +12,7 @@ import numpy as np
 
 from baselines.excitations.backoff import DistinctSettings, check_command_box
 from baselines.excitations.base import Excitation
+from baselines.excitations.draws import uniform_rows
 from baselines.excitations.gaps import GapSettings
 from baselines.excitations.reflex import BumpReflex
 from baselines.steps import Step
@@ -92,11 +93,8 @@ def candidate_commands(
     speeds uniform in ``speed`` (m/s; ``[-speed[1], speed[1]]`` for a swarm ``deviation``),
     then ``C`` turn rates uniform in ``[-turn, turn]`` (rad/s)."""
     low = -speed[1] if deviation else speed[0]
-    out = np.empty((len(rngs), candidates, 2))
-    for i, rng in enumerate(rngs):
-        out[i, :, 0] = rng.uniform(low, speed[1], candidates)
-        out[i, :, 1] = rng.uniform(-turn, turn, candidates)
-    return out
+    drawn = uniform_rows(rngs, [(low, speed[1]), (-turn, turn)], candidates)  # (R, 2, C)
+    return np.ascontiguousarray(drawn.transpose(0, 2, 1))
 
 
 def coin(rngs: Sequence[np.random.Generator], sides: int) -> np.ndarray:
