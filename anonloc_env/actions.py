@@ -49,6 +49,28 @@ def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
     return a.astype(np.float32)
 
 
+def to_actions_and_speed(
+    v: np.ndarray, w: np.ndarray, robot: RobotConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`to_actions` of ``(N,)`` commands, and the forward speed ``(N,)`` (m/s, float64)
+    those float32 actions send: ``|a_v| v_max``. One compiled call where the kernels are on."""
+    if (
+        type(v) is np.ndarray
+        and type(w) is np.ndarray
+        and v.dtype == _FLOAT64
+        and w.dtype == _FLOAT64
+        and v.ndim == 1
+        and v.shape == w.shape
+        and compiled.mode() is not None
+    ):
+        out = np.empty((len(v), 2), np.float32)
+        speed = np.empty(len(v))
+        compiled.actions_and_speed(v, w, robot.v_max, robot.omega_max, out, speed)
+        return out, speed
+    actions = to_actions(v, w, robot)
+    return actions, np.abs(actions[:, 0].astype(np.float64)) * robot.v_max
+
+
 def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarray:
     """Validate a PettingZoo action dict and return an ``(N, 2)`` float64 array, clipped to
     ``[-1, 1]``.

@@ -132,6 +132,22 @@ def actions_of(
 
 
 @jit
+def actions_and_speed(
+    v: np.ndarray,
+    w: np.ndarray,
+    v_max: float,
+    omega_max: float,
+    out: np.ndarray,
+    speed: np.ndarray,
+) -> None:
+    """:func:`actions_of` into ``out``, and into ``speed`` ``(N,)`` the forward speed the
+    actions send, ``np.abs(out[:, 0].astype(np.float64)) * v_max`` (m/s)."""
+    actions_of(v, w, v_max, omega_max, out)
+    for k in range(v.shape[0]):
+        speed[k] = abs(np.float64(out[k, 0])) * v_max
+
+
+@jit
 def checked_actions(actions: np.ndarray, out: np.ndarray) -> int:
     """``anonloc_env.actions.check_action_array``'s work on ``(N, 2)`` float actions: ``out``
     ``(N, 2)`` float64 their values, clipped to ``[-1, 1]`` where every value is finite (returns

@@ -13,7 +13,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from anonloc_env.actions import to_actions, to_commands
+from anonloc_env.actions import to_actions_and_speed, to_commands
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
 from baselines.excitations import Excitation
@@ -127,8 +127,7 @@ class Team:
         """The env's actions ``(R, 2)`` for the commands ``v`` (m/s) and ``w`` (rad/s) of this
         step, recorded in the motion log (each interval carries the command set at its start;
         the contact model reads the speed sent)."""
-        actions = to_actions(v, w, self.config.robot)
-        speed = np.abs(actions[:, 0].astype(np.float64)) * self.config.robot.v_max
+        actions, speed = to_actions_and_speed(v, w, self.config.robot)
         self.log.command(v, w, speed)
         return actions
 

@@ -268,9 +268,10 @@ def test_the_leave_out_sums_are_numpys(request: pytest.FixtureRequest) -> None:
 
 
 def _actions_both_ways(seed: int) -> list[object]:
-    """``to_actions`` and ``check_action_array`` of commands and actions with NaN, infinities,
-    signed zeros, subnormals and values past the limits: every array's bytes, every error."""
-    from anonloc_env.actions import check_action_array, to_actions
+    """``to_actions``, ``to_actions_and_speed`` (with the speed sent) and ``check_action_array``
+    of commands and actions with NaN, infinities, signed zeros, subnormals and values past the
+    limits: every array's bytes, every error."""
+    from anonloc_env.actions import check_action_array, to_actions, to_actions_and_speed
 
     robot = RobotConfig()
     special = [np.nan, np.inf, -np.inf, 0.0, -0.0, 5e-324, 1e308, -1e308, 1.0, -1.0]
@@ -285,6 +286,8 @@ def _actions_both_ways(seed: int) -> list[object]:
             v[rng.integers(0, n)], w[rng.integers(0, n)] = rng.choice(special, 2)
             actions[rng.integers(0, n), rng.integers(0, 2)] = rng.choice(special)
         out.append(to_actions(v, w, robot).tobytes())
+        sent, speed = to_actions_and_speed(v, w, robot)
+        out.extend([sent.tobytes(), speed.tobytes(), speed.dtype.str])
         for given in (actions, actions.astype(np.float32), np.asfortranarray(actions)):
             try:
                 out.append(check_action_array(given, n).tobytes())
@@ -294,8 +297,8 @@ def _actions_both_ways(seed: int) -> list[object]:
 
 
 def test_actions_are_converted_and_checked_as_numpy_does(request: pytest.FixtureRequest) -> None:
-    """The commands' actions (``to_actions``) and the env's check of an action array, one
-    compiled call each: numpy's bytes and errors."""
+    """The commands' actions (``to_actions``, and with the speed they send) and the env's check
+    of an action array, one compiled call each: numpy's bytes and errors."""
     with np.errstate(over="ignore", invalid="ignore"):
         fast = _actions_both_ways(7)
         request.getfixturevalue("numpy_only")

@@ -13,6 +13,7 @@ import numpy as np
 from anonloc_env import compiled
 from baselines.excitations import backoff_kernels
 from baselines.excitations.base import NOBODY
+from baselines.excitations.draws import uniform
 from baselines.steps import Step
 
 
@@ -93,7 +94,7 @@ class BackOff:
         """The turn rates (rad/s) of the robots ``hit`` while they reverse: uniform in
         ``[-turn, turn]``, one draw each from its generator."""
         turn = self.settings.turn
-        return [self.rngs[i].uniform(-turn, turn) for i in hit]
+        return [uniform(self.rngs[i], -turn, turn) for i in hit]
 
     def note(self, step: Step) -> None:
         """Called first at every step with what the robots observed (does nothing here)."""
@@ -104,7 +105,7 @@ class BackOff:
         if not len(hit):
             return
         b = self.settings
-        self.backing[hit] = [self.rngs[i].uniform(*b.back_time) for i in hit]
+        self.backing[hit] = [uniform(self.rngs[i], *b.back_time) for i in hit]
         self.rate[hit] = self.turn_rates(hit)
         self.speed[hit] = b.back_speed
 
@@ -152,11 +153,17 @@ def _plain(x: object, like: np.ndarray, dtype: np.dtype = _FLOAT64) -> bool:
 
 def _plain_state(backoff: BackOff, bumper: np.ndarray) -> bool:
     """Whether the back-off's times, speeds and rates are float64 vectors alike and ``bumper``
-    a bool one (what the compiled step takes)."""
-    backing = backoff.backing
+    a bool one (what the compiled step takes), in one test."""
+    b, s, r = backoff.backing, backoff.speed, backoff.rate
     return (
-        _plain(backing, backing)
-        and _plain(backoff.speed, backing)
-        and _plain(backoff.rate, backing)
-        and _plain(bumper, backing, _BOOL)
+        type(b) is np.ndarray
+        and type(s) is np.ndarray
+        and type(r) is np.ndarray
+        and type(bumper) is np.ndarray
+        and b.ndim == 1
+        and b.dtype == _FLOAT64
+        and s.dtype == _FLOAT64
+        and r.dtype == _FLOAT64
+        and bumper.dtype == _BOOL
+        and b.shape == s.shape == r.shape == bumper.shape
     )
