@@ -87,13 +87,21 @@ class Interval:
         """``(R, 2, 2)`` covariance (m^2, robot frame at the first picture) of what contacts may
         have moved the robot unseen: ``S S^T / 3`` along the summed lateral direction ``S``
         (a slide along a wall adds up in one direction), plus ``(P^2 - |S|^2) / 6`` in every
-        direction for pushes that point different ways (``P`` = :attr:`push`)."""
+        direction for pushes that point different ways (``P`` = :attr:`push`). Computed once
+        (the identifier asks several times a picture), read-only, as :meth:`variances`."""
+        cached = self.__dict__.get("_push_covariance")
+        if cached is not None:
+            return cached
         n = len(self.d)
         if self.push is None or self.push_sum is None:
-            return np.zeros((n, 2, 2))
-        s = self.push_sum
-        spread = np.maximum(self.push**2 - (s**2).sum(axis=1), 0.0) / 6.0
-        return s[:, :, None] * s[:, None, :] / 3.0 + spread[:, None, None] * np.eye(2)
+            cov = np.zeros((n, 2, 2))
+        else:
+            s = self.push_sum
+            spread = np.maximum(self.push**2 - (s**2).sum(axis=1), 0.0) / 6.0
+            cov = s[:, :, None] * s[:, None, :] / 3.0 + spread[:, None, None] * np.eye(2)
+        cov.flags.writeable = False
+        self.__dict__["_push_covariance"] = cov
+        return cov
 
     @property
     def reach(self) -> np.ndarray:

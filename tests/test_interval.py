@@ -47,3 +47,24 @@ def test_a_copy_with_other_fields_has_its_own_variances() -> None:
     other = dataclasses.replace(interval, sum_dth2=doubled)
     np.testing.assert_array_equal(other.variances(0.1)[1], 0.1**2 * doubled)
     assert interval == dataclasses.replace(interval)  # the kept values are not a field
+
+
+def test_the_push_covariance_is_the_formula_and_kept_read_only() -> None:
+    """``S S^T / 3`` plus ``(P^2 - |S|^2) / 6`` in every direction (zeros without contacts),
+    computed once and read-only; a copy with other pushes computes its own."""
+    rng = np.random.default_rng(2)
+    plain = _interval(2)
+    assert not plain.push_covariance().any()
+    push_sum = rng.normal(scale=0.01, size=(7, 2))
+    push = np.hypot(*push_sum.T) * rng.uniform(0.5, 2.0, 7)
+    interval = dataclasses.replace(plain, push=push, push_sum=push_sum)
+    cov = interval.push_covariance()
+    spread = np.maximum(push**2 - (push_sum**2).sum(axis=1), 0.0) / 6.0
+    expected = push_sum[:, :, None] * push_sum[:, None, :] / 3.0
+    expected += spread[:, None, None] * np.eye(2)
+    np.testing.assert_array_equal(cov, expected)
+    assert interval.push_covariance() is cov
+    with pytest.raises(ValueError, match="read-only"):
+        cov += 1.0
+    wider = dataclasses.replace(interval, push=push * 2.0)
+    assert (wider.push_covariance() != cov).any()
