@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import anonloc_env
+from anonloc_env import compiled
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.contact import CROWD_JAM_TAIL, JAM
 from baselines.decisions import Decisions
@@ -82,3 +83,25 @@ def test_jammed_robots_mixed_only_in_a_crowd_with_a_fixed_camera() -> None:
     assert SensorModel.from_config(missing).crowd_jam_tail is None
     drone = anonloc_env.make_config("drone-hover", n_robots=40, arena_size=(4.0, 4.0))
     assert SensorModel.from_config(drone).crowd_jam_tail is None
+
+
+def test_jammed_mixture_is_the_same_with_the_kernels_on_and_off() -> None:
+    """The compiled general step and the numpy path mix a jammed robot's pushes alike: on the
+    recorded episode (jammed robots from picture 12 on) every belief is equal to the bit."""
+    config, result = load_recorded(str(JAMMED6))
+    model = SensorModel.from_config(config)
+    found = []
+    for off in (False, True):
+        with pytest.MonkeyPatch.context() as patch:
+            if off:
+                patch.setattr(compiled, "_MODE", [None])
+            identifier, beliefs, jammed = Identifier(model, result.n_robots), [], 0
+            intervals = [None, *result.intervals][:20]
+            for rows, interval in zip(result.pictures[:20], intervals, strict=True):
+                identifier.update(rows, interval)
+                beliefs.append(identifier.belief())
+                jammed += int((identifier.pushed_run > JAM).sum())
+        found.append(beliefs)
+    assert jammed > 0
+    for on, off in zip(*found, strict=True):
+        np.testing.assert_array_equal(on, off)
