@@ -17,6 +17,8 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
 - ``agent-size-B``: the size terms times ``B`` (``B = 1.5``: at N = 300 an unsure robot's
   preference for cheap candidates is reversed to a quarter of the searched one), at rest;
   ``agent-size-B-norest`` never at rest;
+- ``agent-crawl-F``: the bundled agent whose robots, once sure, drive ``F`` times its command
+  instead of resting (:class:`Crawl`; ``F = 0`` is its rest);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -43,6 +45,7 @@ from baselines.excitations.rest import RestWhenSure
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.statistics import paired_ratio
+from baselines.steps import Step
 from benchmarks.agent_conditions import (
     beyond_conditions,
     crowded_conditions,
@@ -53,6 +56,22 @@ from benchmarks.agent_conditions import (
 REST = 0.9999
 #: The pictures whose share of robots not right is reported.
 EARLY = (2, 3, 4, 5, 6)
+
+
+class Crawl(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose sure robots drive ``fraction``
+    times ``inner``'s command instead of holding still (``fraction = 0``: the rest itself)."""
+
+    def __init__(self, inner: Excitation, sure: float, fraction: float) -> None:
+        super().__init__(inner, sure)
+        if not 0.0 <= fraction <= 1.0:
+            raise ValueError(f"fraction must be in [0, 1], got {fraction!r}")
+        self.fraction = float(fraction)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v, w = self.inner.commands(step, dt)
+        scale = np.where(self.resting, self.fraction, 1.0)
+        return v * scale, w * scale
 
 
 def edited_agent(edit: Callable[[str, float], float]) -> Any:
@@ -86,7 +105,7 @@ def variant(name: str) -> Callable[[], Excitation]:
     else:
         from agents.policy import LearnedExcitation
 
-        if base == "agent":
+        if base == "agent" or base.startswith("agent-crawl-"):
             model = edited_agent(lambda term, w: w)
         elif base == "agent-nodecided":
             model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
@@ -102,6 +121,10 @@ def variant(name: str) -> Callable[[], Excitation]:
     if rest is None:
         return inner
     sure = rest
+    if base.startswith("agent-crawl-"):
+        fraction = float(base.removeprefix("agent-crawl-"))
+        Crawl(inner(), sure, fraction)  # a fraction outside [0, 1] fails here, before any episode
+        return lambda: Crawl(inner(), sure, fraction)
     return lambda: RestWhenSure(inner(), sure)
 
 

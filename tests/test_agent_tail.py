@@ -56,3 +56,9 @@ def test_the_edited_agents_change_only_the_named_weights() -> None:
         want = 0.0 if term.endswith("*decided") else 2.0 * w
         assert got[term] == pytest.approx(want, rel=1e-6, abs=1e-6), term
     assert any(w != 0.0 for t, w in bundled.items() if t.endswith("*decided"))
+
+
+def test_a_crawl_outside_zero_to_one_is_refused_before_any_episode() -> None:
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="fraction must be in"):
+        variant("agent-crawl-1.5")
