@@ -93,6 +93,38 @@ def test_dropping_candidates_below_the_floor_changes_no_track(
         assert fewer < 0.8 * every
 
 
+@pytest.mark.parametrize("general", [False, True])
+@pytest.mark.parametrize("preset", ["drone-hover", "default"])
+def test_uniform_children_below_the_floor_are_not_built_and_change_no_track(
+    preset: str, general: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The uniform weight's children below their robot's floor (scored, but more than
+    ``PRUNE_NATS`` below its best other child) are left out, by the compiled first step and
+    the general path alike: they would be pruned anyway. With every floor at -inf (nothing
+    left out before the prune) every track after every picture is the same, to the bit."""
+    if general:
+        _general_first_step(monkeypatch)
+    built: list[int] = []
+    from_uniform = children_module.Builder.from_uniform
+
+    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]  # a spy
+        out = from_uniform(self, *args, **kwargs)
+        built.append(sum(len(part) for part in out))
+        return out
+
+    monkeypatch.setattr(children_module.Builder, "from_uniform", counted)
+    floored, _ = _snapshots(preset, 64, 6)
+    fewer = sum(built)
+    built.clear()
+    monkeypatch.setattr(Identifier, "_prune_floor", lambda self, parts: np.full(self.n, -np.inf))
+    every, _ = _snapshots(preset, 64, 6)
+    assert len(floored) == len(every) == 6
+    for a, b in zip(floored, every, strict=True):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert fewer < sum(built)
+
+
 @pytest.mark.parametrize("preset", ["drone-hover", "drone-windy", "default"])
 def test_compiled_first_step_gives_the_general_paths_tracks(
     preset: str, monkeypatch: pytest.MonkeyPatch

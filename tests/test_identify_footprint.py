@@ -11,7 +11,7 @@ import anonloc_env
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.arrays import is_shared, shared
 from anonloc_env.identify.camera_pose import Registration
-from anonloc_env.identify.footprint import Footprint, View
+from anonloc_env.identify.footprint import NDTR_ONE, Footprint, View, ndtr
 from anonloc_env.landmarks import border_landmarks
 from anonloc_env.odometry import Interval
 from anonloc_env.rewards import EnergyCost
@@ -62,6 +62,24 @@ def test_a_shifted_view_leaves_its_strip_out_and_nothing_else() -> None:
     assert math.isclose(
         float(soft.p_in(np.array([[10.0, 50.0]]), np.zeros(1))[0]), 0.5, abs_tol=1e-6
     )
+
+
+def test_p_in_skips_only_edges_where_ndtr_is_one_to_the_bit() -> None:
+    """``p_in`` multiplies by ``ndtr`` only where a point is less than ``NDTR_ONE`` spreads
+    inside an edge: beyond it ``ndtr`` is 1.0 to the bit, so ``p_in`` is the full product's
+    floats (NaN included)."""
+    beyond = np.concatenate([np.linspace(NDTR_ONE, 40.0, 2001), [1e3, 1e150, np.inf]])
+    with np.errstate(over="ignore"):
+        assert np.all(ndtr(beyond) == 1.0)
+    fp = _shifted(10.0, sigma=3.0)
+    rng = np.random.default_rng(5)
+    centre = rng.uniform(-20.0, 120.0, (5000, 2))
+    var = rng.uniform(0.0, 400.0, 5000)
+    var[:3] = np.nan
+    full = np.ones(len(centre))
+    for normal, edge in zip(fp.normals, fp.edges, strict=True):
+        full *= ndtr((edge - centre @ normal) / np.sqrt(var + fp.edge_var))
+    np.testing.assert_array_equal(fp.p_in(centre, var), full)
 
 
 def test_reentry_density_sums_to_the_share_that_comes_back() -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from anonloc_env.identify import tracks
 from anonloc_env.identify.arrays import shared
 from anonloc_env.identify.tracks import FIELDS, Tracks
 
@@ -45,9 +46,16 @@ def _index(rng: np.random.Generator, total: int, kind: str) -> np.ndarray:
     return np.concatenate([pieces[k] for k in order])
 
 
+@pytest.mark.parametrize("small", [True, False])
 @pytest.mark.parametrize("kind", ["runs", "scattered", "identity"])
 @pytest.mark.parametrize("seed", range(5))
-def test_gather_is_concat_then_take(kind: str, seed: int) -> None:
+def test_gather_is_concat_then_take(
+    kind: str, seed: int, small: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Both ways of gathering (few tracks: each field concatenated and taken; many: planned
+    runs and scattered copies into one allocation) give the concatenation's tracks."""
+    if not small:
+        monkeypatch.setattr(tracks, "SMALL_GATHER", 0)
     rng = np.random.default_rng(seed)
     parts = [_part(rng, int(n), 5 * k) for k, n in enumerate(rng.integers(1, 400, 3))]
     index = _index(rng, sum(len(p) for p in parts), kind)
@@ -92,3 +100,23 @@ def test_a_short_part_written_out_with_the_shared_value_stays_shared() -> None:
     long = _part(rng, 400, 5)
     long.log_s = np.full(400, np.log(100.0))
     assert Tracks.gather([a, long], np.arange(700)).log_s.strides[0] != 0
+
+
+def test_a_nan_of_other_bits_is_alike_and_other_values_are_not() -> None:
+    """The shared value nan: a part holding nans of other bits (another payload) holds it alike
+    (``np.array_equal`` with ``equal_nan``), as does one holding the same bits; a part with a
+    number among its nans does not."""
+    rng = np.random.default_rng(3)
+    a, b, c = _part(rng, 300, 0), _part(rng, 20, 5), _part(rng, 20, 10)
+    a.log_s = shared(np.nan, 300)
+    quiet = np.array([0x7FF8000000000001], np.int64).view(np.float64)[0]
+    b.log_s = np.full(20, quiet)
+    c.log_s = np.full(20, np.nan)
+    index = rng.permutation(340)
+    got = Tracks.gather([a, b, c], index)
+    assert got.log_s.strides[0] == 0
+    assert np.isnan(got.log_s).all()
+    c.log_s[4] = 1.0
+    got = Tracks.gather([a, b, c], index)
+    assert got.log_s.strides[0] != 0
+    np.testing.assert_array_equal(got.log_s, Tracks.concat([a, b, c]).take(index).log_s)

@@ -303,8 +303,10 @@ def _pruned(
     out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:
     """The ring log-likelihood, each child's log weight, the prune of ``likelihood.pruned``
-    (each robot's run of candidates at most ``nats`` below its best) and the first heading of
-    ``Child.heading_from_displacement`` (NaN, variance inf: none learnt). Writes, for each
+    (each robot's run of candidates at most ``nats`` below its best), the robot's floor
+    (``Builder._uniform_children``'s: the children below it would be pruned anyway) and the
+    first heading of ``Child.heading_from_displacement`` (NaN, variance inf: none learnt).
+    Writes, for each
     kept candidate in order, its index (into ``k_of``), log weight, heading variance and
     heading (before its wrap) into ``out``; returns how many."""
     out_kept, out_logw, out_ptt, out_theta = out
@@ -330,6 +332,8 @@ def _pruned(
             best = w if hi == lo else compiled.maximum(best, w)
             hi += 1
         floor = best - nats
+        if robot[FLOOR, r] > floor:  # below the robot's floor: pruned anyway, not returned
+            floor = robot[FLOOR, r]
         for m in range(lo, hi):
             if logw[m] >= floor:
                 rr = pair[LENGTH, pick[m]]

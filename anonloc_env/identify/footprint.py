@@ -44,6 +44,9 @@ from anonloc_env.config import EnvConfig
 
 #: An edge further than this many standard deviations beyond the arena cuts nothing.
 EDGE_SIGMAS = 5.0
+#: :func:`ndtr` is 1.0 to the bit from here on (its tail under half a unit in the last place
+#: of 1 beyond 8.3: ``tests/test_identify_footprint.py`` checks it).
+NDTR_ONE = 9.0
 
 
 @dataclass(frozen=True)
@@ -159,8 +162,17 @@ class Footprint:
         point is too loosely known to truncate at them (taken in, a robot just beyond the
         edge but short of a wall placed too far out was often held in view)."""
         out = np.ones(len(centre))
+        spread = np.sqrt(var + self.edge_var)
         for normal, edge in zip(self.normals, self.edges, strict=True):
-            out *= ndtr((edge - centre @ normal) / np.sqrt(var + self.edge_var))
+            depth = (edge - centre @ normal) / spread
+            # Most points are deep inside most edges, where ``ndtr`` is 1.0 to the bit: only
+            # the others are multiplied (the same floats; NaN goes through).
+            inside = depth >= NDTR_ONE
+            if inside.any():
+                at = np.flatnonzero(~inside)
+                out[at] *= ndtr(depth[at])
+            else:
+                out *= ndtr(depth)
         return out
 
     def reentry(self, rows: np.ndarray, sigma: float) -> tuple[np.ndarray, float]:

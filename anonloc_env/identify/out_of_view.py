@@ -19,6 +19,7 @@ import numpy as np
 
 from anonloc_env.geometry import rotate
 from anonloc_env.identify import kernels
+from anonloc_env.identify.arrays import is_shared
 from anonloc_env.identify.footprint import EDGE_SIGMAS, Footprint
 from anonloc_env.identify.gate import worst_variance
 from anonloc_env.identify.model import SensorModel
@@ -85,7 +86,10 @@ class OutOfView:
         return np.log1p(-math.exp(self.log_pd) * p_in) - self.log_miss
 
     def _slack(self, var: np.ndarray | float) -> np.ndarray | float:
-        """How far inside an edge a point of variance ``var`` may still be out of view."""
+        """How far inside an edge a point of variance ``var`` may still be out of view (one
+        number for a shared field: the same floats, without a pass over every track)."""
+        if isinstance(var, np.ndarray) and is_shared(var):
+            var = float(var[0])
         return EDGE_SIGMAS * np.sqrt(var + self.footprint.edge_var)
 
     def tracks(self, tracks: Tracks, interval: Interval, pix_var: float, reach: float) -> Tracks:

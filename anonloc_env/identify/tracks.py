@@ -19,6 +19,9 @@ from anonloc_env.odometry import Interval
 
 #: ``Tracks.gather`` copies runs of at least this many consecutive tracks as slices.
 MIN_RUN = 32
+#: ``Tracks.gather`` of at most this many tracks in all concatenates each field and takes the
+#: index (two numpy calls a field: planning runs costs more than the copies it saves).
+SMALL_GATHER = 4096
 
 
 @dataclass
@@ -149,6 +152,8 @@ class Tracks:
         bounds = np.cumsum([0] + [len(p) for p in parts])
         if len(index) == bounds[-1] and len(parts) == 1 and _is_identity(index):
             return parts[0]
+        if bounds[-1] <= SMALL_GATHER:  # the same arrays as below, fewer calls
+            return _gather_small(parts, index)
         runs, where, local = _plan(bounds, index)
         every = [[getattr(p, f) for p in parts] for f in FIELDS]
         same = [alike(arrays, len(index)) for arrays in every]
@@ -171,6 +176,16 @@ class Tracks:
 
 #: The fields of :class:`Tracks`, in order.
 FIELDS = tuple(f.name for f in fields(Tracks))
+
+
+def _gather_small(parts: list[Tracks], index: np.ndarray) -> Tracks:
+    """``Tracks.gather`` of few tracks: each field concatenated, then taken (or shared)."""
+    out = []
+    for f in FIELDS:
+        arrays = [getattr(p, f) for p in parts]
+        same = alike(arrays, len(index))
+        out.append(np.concatenate(arrays)[index] if same is None else same)
+    return Tracks(*out)
 
 
 def _width(a: np.ndarray) -> int:

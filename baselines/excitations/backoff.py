@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from anonloc_env import compiled
+from baselines.excitations import backoff_kernels
 from baselines.excitations.base import NOBODY
 from baselines.steps import Step
 
@@ -115,9 +117,20 @@ class BackOff:
         """The commands of this step: ``own(hit)`` (the excitation's ``(v, w)``, told which
         robots ``hit`` just bumped), with those of the robots reversing replaced."""
         self.note(step)
-        hit = np.flatnonzero(step.bumper & (self.backing <= 0.0)) if step.bumper.any() else NOBODY
+        fast = compiled.mode() is not None and _plain_state(self, step.bumper)
+        if fast:  # one compiled call each here and below, the same floats
+            hit = backoff_kernels.bumped_idle(step.bumper, self.backing)
+        elif step.bumper.any():
+            hit = np.flatnonzero(step.bumper & (self.backing <= 0.0))
+        else:
+            hit = NOBODY
         self.start(hit)
         v, w = own(hit)
+        if fast and _plain(v, self.backing) and _plain(w, self.backing):
+            out = np.empty((3, len(v)))
+            if backoff_kernels.backed_off(self.backing, self.speed, self.rate, v, w, dt, out):
+                self.backing = out[2]
+            return out[0], out[1]
         backing = self.backing > 0.0
         if not backing.any() and _plain(v, backing) and _plain(w, backing):
             # Nobody reversing (most steps): the times left stay 0 and the commands are the
@@ -127,10 +140,23 @@ class BackOff:
         return np.where(backing, -self.speed, v), np.where(backing, self.rate, w)
 
 
-def _plain(x: object, like: np.ndarray) -> bool:
-    """Whether ``x`` is a float64 array of the shape of ``like`` (then ``np.where(False, y, x)``
-    is a copy of ``x``)."""
-    return type(x) is np.ndarray and x.dtype == _FLOAT64 and x.shape == like.shape
-
-
 _FLOAT64 = np.dtype(np.float64)
+_BOOL = np.dtype(np.bool_)
+
+
+def _plain(x: object, like: np.ndarray, dtype: np.dtype = _FLOAT64) -> bool:
+    """Whether ``x`` is a vector of ``dtype`` (float64) of the shape of ``like`` (then
+    ``np.where(False, y, x)`` is a copy of ``x``)."""
+    return type(x) is np.ndarray and x.dtype == dtype and x.shape == like.shape and x.ndim == 1
+
+
+def _plain_state(backoff: BackOff, bumper: np.ndarray) -> bool:
+    """Whether the back-off's times, speeds and rates are float64 vectors alike and ``bumper``
+    a bool one (what the compiled step takes)."""
+    backing = backoff.backing
+    return (
+        _plain(backing, backing)
+        and _plain(backoff.speed, backing)
+        and _plain(backoff.rate, backing)
+        and _plain(bumper, backing, _BOOL)
+    )
