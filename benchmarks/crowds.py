@@ -126,6 +126,7 @@ def parse_changes(texts: Sequence[str]) -> dict[str, tuple[str, float]]:
         "crowd_push_share",
         "crowd_push_tail",
         "crowd_jam",
+        "crowd_jam_tail",
         "contact_break",
         "filter_position",
         "crowd_noise",

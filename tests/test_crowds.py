@@ -26,6 +26,7 @@ from anonloc_env.identify.contact import (
     mix_pushes,
     pressed_interval,
     tail_candidates,
+    tails,
 )
 from anonloc_env.odometry import Interval
 from baselines.excitations import GapSeeking, GapSettings
@@ -81,10 +82,11 @@ PRESSED = Path(__file__).parent / "data" / "crowd_pressed.npz"
 
 def _anchored(config: EnvConfig) -> SensorModel:
     """The crowd's model with every track anchored at its detection (no ``filter_position``)
-    and the detections' noise as stated (no ``crowd_noise``): the model the fourth and fifth
-    rounds' pressed-robot mechanisms were measured on."""
+    and the detections' noise as stated (no ``crowd_noise``) and jammed robots with the wide
+    pushes alone (no ``crowd_jam_tail``): the model the fourth and fifth rounds' pressed-robot
+    mechanisms were measured on."""
     model = SensorModel.from_config(config)
-    return dataclasses.replace(model, filter_position=False, crowd_noise=1.0)
+    return dataclasses.replace(model, filter_position=False, crowd_noise=1.0, crowd_jam_tail=None)
 
 
 def _right_and_decided(model: SensorModel, path: Path = PRESSED) -> list[np.ndarray]:
@@ -182,6 +184,18 @@ def test_pressed_pushes_mix_only_below_a_tail_of_one() -> None:
     assert len(tail_candidates(interval, slot, 1.0)) == 0
     assert pressed_interval(pushed, np.array([1, 1, 0, 1]), 0.12, 1.0) is pushed
     assert len(tail_candidates(pushed, slot, 0.1)) == 0
+    assert tails(interval, slot[[0, 2]], 0.1) == 0.1  # no jammed robot mixed
+    # In a crowd the jammed robot (3) is mixed too, with its own weight.
+    interval = pressed_interval(pushed, run, 0.12, 1.0, JAM, 0.2)
+    assert isinstance(interval, PressedInterval)
+    assert tail_candidates(interval, slot, 0.1).tolist() == [0, 2, 3, 4, 6]
+    assert tail_candidates(interval, slot, 1.0).tolist() == [3]
+    np.testing.assert_array_equal(tails(interval, np.array([0, 2, 3]), 0.1), [0.1, 0.1, 0.2])
+    np.testing.assert_allclose(
+        mix_pushes(wide, narrow, np.array([0.1, 0.1, 0.2])),
+        [-3.0, 0.5 + math.log(0.1), 2.0 + math.log(0.8)],
+    )
+    assert pressed_interval(pushed, run, 0.12, 1.0, JAM, 1.0).jammed is None  # type: ignore[attr-defined]
 
 
 #: N = 30 at 6 robots per m^2, ``random``, seed 712 (a tuning seed), 12 pictures, written by
@@ -297,6 +311,9 @@ def test_contact_model_fields_are_checked() -> None:
         dataclasses.replace(model, crowd_push_tail=0.0)
     with pytest.raises(ValueError, match="crowd_jam"):
         dataclasses.replace(model, crowd_jam=1)
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="crowd_jam_tail"):
+            dataclasses.replace(model, crowd_jam_tail=bad)
     with pytest.raises(ValueError, match="filter_position"):
         dataclasses.replace(model, filter_position=0.5)
 

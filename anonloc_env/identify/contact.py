@@ -25,7 +25,13 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   whenever they were pressed. A *jammed* robot, pushed more than
   :attr:`~anonloc_env.identify.SensorModel.crowd_jam` (:data:`JAM`) intervals in a row,
   keeps the wide pushes alone (robots jammed together for tens of intervals were taken for one
-  another with the mixture).
+  another with the mixture) where the decisions do not guard it: up to one robot per m^2. In a
+  crowd (above one robot per m^2, clean pictures, a fixed camera) its likelihood mixes them too
+  (:attr:`~anonloc_env.identify.SensorModel.crowd_jam_tail`, :data:`CROWD_JAM_TAIL`): a
+  jammed robot slides no wider than a pressed one, and with the wide pushes alone the beliefs
+  of decided jammed robots drifted down along their own track, interval after interval, until
+  they were undecided; ``baselines.decisions`` takes no new decision for a robot pushed in more
+  than 6 intervals in a row, so robots jammed alike are not decided on one another.
 * Its track may have broken (a slide taken for a heading, a swap with a pressed neighbour):
   with probability ``1 - exp(-push / contact_break)`` a robot's weight returns to the uniform
   weight over the previous picture's rows, so an identity lost in a jam is found again and the
@@ -53,8 +59,17 @@ CROWD_PUSH_SHARE = 1.0
 #: rest has the pushes of a robot that bumps once (``push_share``).
 CROWD_PUSH_TAIL = 0.05
 #: A robot pushed more intervals in a row than this is *jammed*: its likelihood keeps the wide
-#: pushes alone (see :func:`mix_pushes`).
+#: pushes alone (see :func:`mix_pushes`), but in a crowd (:data:`CROWD_JAM_TAIL`).
 JAM = 10
+#: The weight of the wide pushes in a jammed robot's likelihood in a crowd
+#: (``SensorModel.crowd_jam_tail``, set by ``from_config`` above one robot per m^2 on clean
+#: pictures with a fixed camera): the same mixture as a pressed robot's. A jammed robot slides no
+#: wider than a pressed one (fitted share of the push covariance 0.044 against 0.047 on tuning
+#: episodes at 6 per m^2), and with the wide pushes alone every interval it stays jammed moves a
+#: little of its belief to the neighbours pressed against it: the beliefs of robots decided and
+#: jammed for 11 to 28 intervals drifted down along their own track until they were undecided,
+#: several at once (``docs/crowds.md``, twelfth round).
+CROWD_JAM_TAIL = CROWD_PUSH_TAIL
 #: The contact bound (m, summed over an interval) over which a pressed robot's track breaks
 #: with probability ``1 - 1/e`` at one robot per m^2 or fewer (see :func:`break_length`); a
 #: robot pressed through a whole interval at top speed has a bound of about 0.4 m.
@@ -95,12 +110,17 @@ class PressedInterval(Interval):
 
     Attributes:
         mixed: ``(R,)`` the robots whose likelihood mixes the wide pushes with narrow ones
-            (:func:`mix_pushes`): pressed, but not jammed.
+            (:func:`mix_pushes`) with weight ``crowd_push_tail``: pressed, but not jammed.
         narrow: the interval as it was, pushes not widened.
+        jammed: ``(R,)`` the jammed robots whose likelihood mixes them too, with weight
+            ``jam_tail`` (None: none).
+        jam_tail: that weight (``SensorModel.crowd_jam_tail``), or None.
     """
 
     mixed: np.ndarray | None = None
     narrow: Interval | None = None
+    jammed: np.ndarray | None = None
+    jam_tail: float | None = None
 
 
 def pressed_interval(
@@ -109,32 +129,59 @@ def pressed_interval(
     push_share: float,
     crowd_push_share: float,
     jam: int = JAM,
+    jam_tail: float | None = None,
 ) -> Interval:
     """``interval`` with the pushes of the robots pressed (pushed ``run`` >= 2 intervals in a
     row, this one included) widened so that the model's share of their covariance is
     ``crowd_push_share`` instead of ``push_share`` (the same interval where none is pressed); a
     :class:`PressedInterval` that keeps ``interval`` as its ``narrow``, mixed in for the robots
-    pushed at most ``jam`` intervals in a row."""
+    pushed at most ``jam`` intervals in a row, and for the jammed ones (pushed more) with weight
+    ``jam_tail`` where it is below 1 (None: not for them)."""
     pressed = run >= 2
     if interval.push is None or interval.push_sum is None or not pressed.any():
         return interval
     factor = np.where(pressed, np.sqrt(crowd_push_share / push_share), 1.0)
     wide = {f.name: getattr(interval, f.name) for f in dataclasses.fields(interval)}
     wide.update(push=interval.push * factor, push_sum=interval.push_sum * factor[:, None])
-    return PressedInterval(**wide, mixed=pressed & (run <= jam), narrow=interval)
+    jammed = run > jam if jam_tail is not None and jam_tail < 1.0 else None
+    return PressedInterval(
+        **wide,
+        mixed=pressed & (run <= jam),
+        narrow=interval,
+        jammed=jammed,
+        jam_tail=None if jammed is None else jam_tail,
+    )
 
 
 def tail_candidates(interval: Interval, slot: np.ndarray, tail: float | None) -> np.ndarray:
     """Indices of the candidates (robots ``slot``) whose likelihood :func:`mix_pushes` mixes:
     those of pressed robots, where ``interval`` is a :class:`PressedInterval` and ``tail`` is
-    below 1 (none otherwise)."""
-    if tail is None or tail >= 1.0 or not isinstance(interval, PressedInterval):
+    below 1, and those of its mixed jammed robots (none otherwise)."""
+    if not isinstance(interval, PressedInterval):
         return np.zeros(0, np.int64)
     assert interval.mixed is not None
-    return np.flatnonzero(interval.mixed[slot])
+    mixed = interval.mixed if tail is not None and tail < 1.0 else None
+    if interval.jammed is not None:
+        mixed = interval.jammed if mixed is None else mixed | interval.jammed
+    if mixed is None:
+        return np.zeros(0, np.int64)
+    return np.flatnonzero(mixed[slot])
 
 
-def mix_pushes(wide: np.ndarray, narrow: np.ndarray, tail: float) -> np.ndarray:
+def tails(interval: Interval, robots: np.ndarray, tail: float) -> float | np.ndarray:
+    """The weight of the wide pushes in the likelihood of candidates of ``robots`` (those of
+    :func:`tail_candidates`): ``tail`` (``crowd_push_tail``), but for the jammed robots of a
+    :class:`PressedInterval` whose own weight is ``jam_tail``."""
+    if not isinstance(interval, PressedInterval) or interval.jammed is None:
+        return tail
+    jammed = interval.jammed[robots]
+    if not jammed.any():
+        return tail
+    assert interval.jam_tail is not None
+    return np.where(jammed, interval.jam_tail, tail)
+
+
+def mix_pushes(wide: np.ndarray, narrow: np.ndarray, tail: float | np.ndarray) -> np.ndarray:
     """A pressed robot's log-likelihood: its pushes are those of a single bump (``narrow``,
     ``push_share``) but for a share ``tail`` of its intervals, where they are spread up to their
     bound (``wide``). Measured on the true poses of crowded episodes (greedy, distinct and
@@ -143,7 +190,9 @@ def mix_pushes(wide: np.ndarray, narrow: np.ndarray, tail: float) -> np.ndarray:
     a bump's, with a wide tail. With the wide pushes alone a neighbour pressed against the robot,
     one size away, fitted almost as well as the robot's own row and decided robots went
     undecided (``docs/crowds.md``). The heading and scale are updated with the wide pushes
-    only, so a slide still does not turn into a heading."""
+    only, so a slide still does not turn into a heading. ``tail`` may be one per candidate."""
+    if isinstance(tail, np.ndarray):
+        return np.logaddexp(narrow + np.log1p(-tail), wide + np.log(tail))
     return np.logaddexp(narrow + math.log1p(-tail), wide + math.log(tail))
 
 

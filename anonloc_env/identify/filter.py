@@ -203,7 +203,7 @@ class Identifier:
         brk = model.contact_break
         break_tracks(t.logw, t.slot, self.uniform, self.unanchored, log_rows, push, brk)
         shares = (model.push_share, model.crowd_push_share)
-        return pressed_interval(interval, run, *shares, model.crowd_jam)
+        return pressed_interval(interval, run, *shares, model.crowd_jam, model.crowd_jam_tail)
 
     def _extend(
         self,

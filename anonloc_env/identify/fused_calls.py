@@ -25,7 +25,7 @@ from anonloc_env.identify.arrays import (
     positions,
     take_field,
 )
-from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates
+from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates, tails
 from anonloc_env.identify.gate import GATE_CHI2, PRUNE_NATS, worst_variance
 from anonloc_env.identify.likelihood import (
     Child,
@@ -106,7 +106,8 @@ def general_step(
             x[10], x[11], x[12] = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
             narrow = fused.general_kalman(x, pix_var, model.scale_spread)
             narrow_ll = -LOG_2PI - 0.5 * np.log(narrow[0]) - 0.5 * narrow[1]
-            loglik[tail] = mix_pushes(loglik[tail], narrow_ll, model.crowd_push_tail)
+            weight = tails(interval, slot[tail], model.crowd_push_tail)
+            loglik[tail] = mix_pushes(loglik[tail], narrow_ll, weight)
         new = (loglik, step[2], step[3], step[4], step[5], step[6])
     child.loglik[g], child.theta[g], child.p_tt[g] = new[:3]
     # Own copies: the parents' fields may be shared.

@@ -22,6 +22,7 @@ from anonloc_env.identify.contact import (
     first_heading_variance,
     mix_pushes,
     tail_candidates,
+    tails,
 )
 from anonloc_env.identify.gate import PRUNE_NATS
 from anonloc_env.identify.model import (
@@ -404,7 +405,8 @@ def kalman(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> Non
         sub_parent = parent.take(tail)
         sub = Child.start(sub_parent)
         kalman_step(np.ones(len(tail), bool), geo.narrowed(tail), sub_parent, sub)
-        child.loglik[tail] = mix_pushes(child.loglik[tail], sub.loglik, geo.model.crowd_push_tail)
+        weight = tails(geo.interval, geo.slot[tail], geo.model.crowd_push_tail)
+        child.loglik[tail] = mix_pushes(child.loglik[tail], sub.loglik, weight)
 
 
 def kalman_step(mask: np.ndarray, geo: Geometry, parent: Tracks, child: Child) -> None:

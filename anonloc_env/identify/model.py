@@ -13,6 +13,7 @@ from anonloc_env._checks import check_number, check_pair
 from anonloc_env.camera import survey
 from anonloc_env.config import EnvConfig
 from anonloc_env.identify.contact import (
+    CROWD_JAM_TAIL,
     CROWD_NOISE,
     CROWD_PUSH_SHARE,
     CROWD_PUSH_TAIL,
@@ -85,8 +86,13 @@ class SensorModel:
             ``from_config`` sets :data:`anonloc_env.identify.contact.CROWD_PUSH_TAIL` with
             ``crowd_push_share``.
         crowd_jam: a robot pushed more than this many intervals in a row (>= 2) is jammed: its
-            likelihood keeps ``crowd_push_share`` alone. The default:
-            :data:`anonloc_env.identify.contact.JAM`.
+            likelihood keeps ``crowd_push_share`` alone (but see ``crowd_jam_tail``). The
+            default: :data:`anonloc_env.identify.contact.JAM`.
+        crowd_jam_tail: the weight, in (0, 1], of ``crowd_push_share`` in a jammed robot's
+            likelihood, the rest ``push_share`` (the mixture of ``crowd_push_tail``); ``None``
+            (the default): ``crowd_push_share`` alone. ``from_config`` sets
+            :data:`anonloc_env.identify.contact.CROWD_JAM_TAIL` where it sets ``crowd_noise``
+            above 1 (a crowd on clean pictures, a fixed camera), ``None`` elsewhere.
         contact_break: the contact bound (m, summed over an interval) over which a
             pressed robot's track breaks with probability ``1 - 1/e`` (its weight returns to the
             uniform weight; see :func:`anonloc_env.identify.contact.break_tracks`), >= 0; 0 (the
@@ -137,6 +143,7 @@ class SensorModel:
     crowd_push_share: float | None = None
     crowd_push_tail: float = 1.0
     crowd_jam: int = JAM
+    crowd_jam_tail: float | None = None
     contact_break: float = 0.0
     filter_position: bool = False
     crowd_noise: float = 1.0
@@ -172,6 +179,8 @@ class SensorModel:
         check_number("crowd_push_tail", self.crowd_push_tail, 0.0, 1.0, low_open=True)
         if not (isinstance(self.crowd_jam, int | np.integer) and self.crowd_jam >= 2):
             raise ValueError(f"crowd_jam must be an integer >= 2, got {self.crowd_jam!r}")
+        if self.crowd_jam_tail is not None:
+            check_number("crowd_jam_tail", self.crowd_jam_tail, 0.0, 1.0, low_open=True)
         check_number("contact_break", self.contact_break, 0.0)
         if not isinstance(self.filter_position, bool | np.bool_):
             raise ValueError(f"filter_position must be a bool, got {self.filter_position!r}")
@@ -247,6 +256,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         contact_break=break_length(config.n_robots / area) if clean else 0.0,
         filter_position=crowd,
         crowd_noise=CROWD_NOISE if crowd and registration is None else 1.0,
+        crowd_jam_tail=CROWD_JAM_TAIL if crowd and registration is None else None,
         registration=registration,
         view=_view(config, registration),
         pooled_motion=registration is not None and config.camera.pooled_motion,
