@@ -19,6 +19,8 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   ``agent-size-B-norest`` never at rest;
 - ``agent-crawl-F``: the bundled agent whose robots, once sure, drive ``F`` times its command
   instead of resting (:class:`Crawl`; ``F = 0`` is its rest);
+- ``agent-delay-K``: the bundled agent whose robots rest only once sure at ``K`` pictures
+  running (:class:`Delayed`; ``K = 1`` is its rest);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -45,7 +47,7 @@ from baselines.excitations.rest import RestWhenSure
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
 from baselines.statistics import paired_ratio
-from baselines.steps import Step
+from baselines.steps import BeliefView, Step
 from benchmarks.agent_conditions import (
     beyond_conditions,
     crowded_conditions,
@@ -72,6 +74,21 @@ class Crawl(RestWhenSure):
         v, w = self.inner.commands(step, dt)
         scale = np.where(self.resting, self.fraction, 1.0)
         return v * scale, w * scale
+
+
+class Delayed(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose robots rest only once sure at
+    ``after`` pictures running (``after = 1``: the rest itself; the probe as before)."""
+
+    def __init__(self, inner: Excitation, sure: float, after: int) -> None:
+        super().__init__(inner, sure)
+        if not (isinstance(after, int) and after >= 1):
+            raise ValueError(f"after must be an integer >= 1, got {after!r}")
+        self.after = after
+
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        super().on_picture(step, view)
+        self.resting = self.resting & (self.sure_for >= self.after)
 
 
 def edited_agent(edit: Callable[[str, float], float]) -> Any:
@@ -105,7 +122,7 @@ def variant(name: str) -> Callable[[], Excitation]:
     else:
         from agents.policy import LearnedExcitation
 
-        if base == "agent" or base.startswith("agent-crawl-"):
+        if base == "agent" or base.startswith(("agent-crawl-", "agent-delay-")):
             model = edited_agent(lambda term, w: w)
         elif base == "agent-nodecided":
             model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
@@ -125,6 +142,10 @@ def variant(name: str) -> Callable[[], Excitation]:
         fraction = float(base.removeprefix("agent-crawl-"))
         Crawl(inner(), sure, fraction)  # a fraction outside [0, 1] fails here, before any episode
         return lambda: Crawl(inner(), sure, fraction)
+    if base.startswith("agent-delay-"):
+        after = int(base.removeprefix("agent-delay-"))
+        Delayed(inner(), sure, after)  # an after below 1 fails here, before any episode
+        return lambda: Delayed(inner(), sure, after)
     return lambda: RestWhenSure(inner(), sure)
 
 

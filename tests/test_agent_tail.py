@@ -62,3 +62,9 @@ def test_a_crawl_outside_zero_to_one_is_refused_before_any_episode() -> None:
     pytest.importorskip("stable_baselines3")
     with pytest.raises(ValueError, match="fraction must be in"):
         variant("agent-crawl-1.5")
+
+
+def test_a_delay_below_one_picture_is_refused_before_any_episode() -> None:
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="after must be an integer >= 1"):
+        variant("agent-delay-0")
