@@ -30,8 +30,8 @@ The model here, for a robot *pressed*: pushed in this interval and in the one be
   (:attr:`~anonloc_env.identify.SensorModel.crowd_jam_tail`, :data:`CROWD_JAM_TAIL`): a
   jammed robot slides no wider than a pressed one, and with the wide pushes alone the beliefs
   of decided jammed robots drifted down along their own track, interval after interval, until
-  they were undecided; ``baselines.decisions`` takes no new decision for a robot pushed in more
-  than 6 intervals in a row, so robots jammed alike are not decided on one another.
+  they were undecided. Robots jammed alike were not decided on one another more often on
+  tuning episodes (with the filtered positions and noise floor added since the jam limit).
 * Its track may have broken (a slide taken for a heading, a swap with a pressed neighbour):
   with probability ``1 - exp(-push / contact_break)`` a robot's weight returns to the uniform
   weight over the previous picture's rows, so an identity lost in a jam is found again and the

@@ -1,0 +1,201 @@
+"""Where a condition's pictures to 99 % are won or lost: the share of robots not right at each
+early picture, for the bundled agent, edits of it and ``uniform``, paired on the same seeds
+(issue 24, twelfth round).
+
+Pictures to 99 % is a count that moves in whole pictures (4 or 5 at free N = 300), so a few per
+cent between two excitations is a few episodes tipping over. The share of robots not right at
+picture ``k`` (undecided, or decided on another row; the team's own ``bayes``) is a finer view
+of the same thing: summed over the episodes, its ratio to the reference's says at which
+picture an excitation falls behind. Each variant is the bundled agent with its weights edited
+in memory (nothing saved), or ``uniform``, each with or without the rest once sure
+(:class:`baselines.excitations.rest.RestWhenSure`):
+
+- ``agent``: the bundled agent as its spec runs it (rest at 0.9999);
+- ``agent-norest``: the same weights, never at rest;
+- ``agent-nodecided``: the ``*decided`` weights zeroed (a decided robot chooses as an unsure
+  one), at rest;
+- ``agent-size-B``: the size terms times ``B`` (``B = 1.5``: at N = 300 an unsure robot's
+  preference for cheap candidates is reversed to a quarter of the searched one), at rest;
+  ``agent-size-B-norest`` never at rest;
+- ``agent-crawl-F``: the bundled agent whose robots, once sure, drive ``F`` times its command
+  instead of resting (:class:`Crawl`; ``F = 0`` is its rest);
+- ``agent-delay-K``: the bundled agent whose robots rest only once sure at ``K`` pictures
+  running (:class:`Delayed`; ``K = 1`` is its rest);
+- ``uniform``, ``uniform-rest`` (at 0.9999).
+
+Usage::
+
+    python -m benchmarks.agent_tail --condition "free N=300" --episodes 24 \\
+        --first-seed 800100 --variants uniform agent agent-norest agent-nodecided agent-size-1.5
+
+The first variant is the reference of the ratios (95 % paired bootstrap intervals over the
+episodes, :func:`baselines.statistics.paired_ratio`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from agents.evaluation import censored, play
+from baselines.excitations.base import Excitation
+from baselines.excitations.rest import RestWhenSure
+from baselines.registry import EXCITATIONS
+from baselines.runner import EpisodeResult
+from baselines.statistics import paired_ratio
+from baselines.steps import BeliefView, Step
+from benchmarks.agent_conditions import (
+    beyond_conditions,
+    crowded_conditions,
+    evaluation_conditions,
+)
+
+#: The bundled agent's rest (its spec's ``rest``), and ``uniform-rest``'s here.
+REST = 0.9999
+#: The pictures whose share of robots not right is reported.
+EARLY = (2, 3, 4, 5, 6)
+
+
+class Crawl(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose sure robots drive ``fraction``
+    times ``inner``'s command instead of holding still (``fraction = 0``: the rest itself)."""
+
+    def __init__(self, inner: Excitation, sure: float, fraction: float) -> None:
+        super().__init__(inner, sure)
+        if not 0.0 <= fraction <= 1.0:
+            raise ValueError(f"fraction must be in [0, 1], got {fraction!r}")
+        self.fraction = float(fraction)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v, w = self.inner.commands(step, dt)
+        scale = np.where(self.resting, self.fraction, 1.0)
+        return v * scale, w * scale
+
+
+class Delayed(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose robots rest only once sure at
+    ``after`` pictures running (``after = 1``: the rest itself; the probe as before)."""
+
+    def __init__(self, inner: Excitation, sure: float, after: int) -> None:
+        super().__init__(inner, sure)
+        if not (isinstance(after, int) and after >= 1):
+            raise ValueError(f"after must be an integer >= 1, got {after!r}")
+        self.after = after
+
+    def on_picture(self, step: Step, view: BeliefView) -> None:
+        super().on_picture(step, view)
+        self.resting = self.resting & (self.sure_for >= self.after)
+
+
+def edited_agent(edit: Callable[[str, float], float]) -> Any:
+    """The bundled agent's model with each weight ``w`` of term ``name`` replaced by
+    ``edit(name, w)`` (in memory)."""
+    import torch
+
+    from agents.policy import load_model, model_spec
+
+    model = load_model("bundled")
+    spec = model_spec(model)
+    assert spec is not None  # the bundled agent has a spec
+    weights = model.policy.scorer.weights
+    with torch.no_grad():
+        for i, term in enumerate(spec.terms):
+            weights[i] = edit(term.name, float(weights[i]))
+    return model
+
+
+def variant(name: str) -> Callable[[], Excitation]:
+    """How to build the excitation a variant name says (see the module).
+
+    Raises:
+        ValueError: a name this script does not know.
+    """
+    rest: float | None = None if name.endswith("-norest") else REST
+    base = name.removesuffix("-norest")
+    if base in ("uniform", "uniform-rest"):
+        rest = REST if base == "uniform-rest" else None
+        inner: Callable[[], Excitation] = EXCITATIONS["uniform"]
+    else:
+        from agents.policy import LearnedExcitation
+
+        if base == "agent" or base.startswith(("agent-crawl-", "agent-delay-")):
+            model = edited_agent(lambda term, w: w)
+        elif base == "agent-nodecided":
+            model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
+        elif base.startswith("agent-size-"):
+            scale = float(base.removeprefix("agent-size-"))
+            model = edited_agent(lambda term, w: w * scale if term.endswith("*rows_free") else w)
+        else:
+            raise ValueError(f"unknown variant {name!r} (see benchmarks.agent_tail)")
+
+        def inner() -> Excitation:
+            return LearnedExcitation(model)
+
+    if rest is None:
+        return inner
+    sure = rest
+    if base.startswith("agent-crawl-"):
+        fraction = float(base.removeprefix("agent-crawl-"))
+        Crawl(inner(), sure, fraction)  # a fraction outside [0, 1] fails here, before any episode
+        return lambda: Crawl(inner(), sure, fraction)
+    if base.startswith("agent-delay-"):
+        after = int(base.removeprefix("agent-delay-"))
+        Delayed(inner(), sure, after)  # an after below 1 fails here, before any episode
+        return lambda: Delayed(inner(), sure, after)
+    return lambda: RestWhenSure(inner(), sure)
+
+
+def not_right(result: EpisodeResult, pictures: Sequence[int] = EARLY) -> np.ndarray:
+    """The share of robots whose own ``bayes`` is not right at each of ``pictures``."""
+    out = np.zeros(len(pictures))
+    for j, k in enumerate(pictures):
+        correct = [r.correct for r in result.records if r.picture == k and r.localizer == ""]
+        out[j] = 1.0 - float(np.mean(correct)) if correct else 0.0
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--condition", default="free N=300")
+    parser.add_argument("--episodes", type=int, default=24)
+    parser.add_argument("--first-seed", type=int, default=800_100)
+    parser.add_argument("--pictures", type=int, default=30)
+    parser.add_argument("--variants", nargs="+", default=["uniform", "agent", "agent-norest"])
+    args = parser.parse_args()
+    makers = {name: variant(name) for name in args.variants}  # unknown names fail first
+    conditions = evaluation_conditions() | crowded_conditions() | beyond_conditions()
+    config, condition, budget = conditions[args.condition]
+    seeds = range(args.first_seed, args.first_seed + args.episodes)
+    firsts, shares = {}, {}
+    header = " | ".join(f"not right at {k}" for k in EARLY)
+    print(f"| variant | pictures | energy (m) | {header} |\n" + "|---" * (3 + len(EARLY)) + "|")
+    for name, make in makers.items():
+        start = time.perf_counter()
+        results = play(config, condition, budget, make, seeds, args.pictures)
+        firsts[name] = np.array([censored(r, args.pictures) for r in results], np.float64)
+        shares[name] = np.stack([not_right(r) for r in results])
+        cells = " | ".join(f"{100 * s:.3f} %" for s in shares[name].mean(axis=0))
+        mean = firsts[name].mean(axis=0)
+        seconds = time.perf_counter() - start
+        print(f"| {name} | {mean[0]:.3f} | {mean[1]:.3f} | {cells} |  ({seconds:.0f} s)")
+    ref = args.variants[0]
+    rule = "|---" * (3 + len(EARLY)) + "|"
+    print(f"\n| variant / {ref} | pictures | energy | {header} |\n{rule}")
+    for name in args.variants[1:]:
+        ratios = [paired_ratio(firsts[name][:, i], firsts[ref][:, i]) for i in (0, 1)]
+        texts = [f"{r.mean:.3f} [{r.low:.3f}, {r.high:.3f}]" for r in ratios]
+        for j in range(len(EARLY)):
+            if shares[ref][:, j].sum() > 0:
+                r = paired_ratio(shares[name][:, j], shares[ref][:, j])
+                texts.append(f"{r.mean:.3f} [{r.low:.3f}, {r.high:.3f}]")
+            else:  # the reference has every robot right there: no ratio
+                texts.append("n/a")
+        print(f"| {name} | {' | '.join(texts)} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,70 @@
+"""``benchmarks.agent_tail``: its variants are the edits its documentation names, and the share
+of robots not right is read per picture from the team's own records."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from baselines.runner import EpisodeResult, PictureRecord
+from benchmarks.agent_tail import not_right, variant
+
+
+def _record(robot: int, picture: int, correct: bool, localizer: str = "") -> PictureRecord:
+    return PictureRecord(
+        localizer=localizer,
+        robot=robot,
+        picture=picture,
+        time=float(picture),
+        estimate=robot if correct else -1,
+        true_index=robot,
+        correct=correct,
+        belief_true=0.5,
+        energy=0.0,
+    )
+
+
+def test_not_right_counts_the_teams_own_records_per_picture() -> None:
+    records = [
+        _record(0, 2, True),
+        _record(1, 2, False),
+        _record(0, 3, True),
+        _record(1, 3, True),
+        _record(1, 3, False, localizer="listener"),  # another localizer's: ignored
+    ]
+    result = EpisodeResult(seed=0, n_robots=2, records=records)
+    assert np.array_equal(not_right(result, (2, 3, 4)), [0.5, 0.0, 0.0])
+
+
+def test_an_unknown_variant_is_refused_by_name() -> None:
+    with pytest.raises(ValueError, match="'agent-bold'"):
+        variant("agent-bold")
+
+
+def test_the_edited_agents_change_only_the_named_weights() -> None:
+    pytest.importorskip("stable_baselines3")
+    from agents.linear_agent import linear_weights
+    from agents.policy import model_spec
+    from benchmarks.agent_tail import edited_agent
+
+    bundled = linear_weights("bundled")
+    model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else 2.0 * w)
+    spec = model_spec(model)
+    assert spec is not None
+    got = dict(zip((t.name for t in spec.terms), model.policy.scorer.weights.tolist(), strict=True))
+    for term, w in bundled.items():
+        want = 0.0 if term.endswith("*decided") else 2.0 * w
+        assert got[term] == pytest.approx(want, rel=1e-6, abs=1e-6), term
+    assert any(w != 0.0 for t, w in bundled.items() if t.endswith("*decided"))
+
+
+def test_a_crawl_outside_zero_to_one_is_refused_before_any_episode() -> None:
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="fraction must be in"):
+        variant("agent-crawl-1.5")
+
+
+def test_a_delay_below_one_picture_is_refused_before_any_episode() -> None:
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="after must be an integer >= 1"):
+        variant("agent-delay-0")
