@@ -25,10 +25,11 @@ def to_commands(actions: np.ndarray, robot: RobotConfig) -> tuple[np.ndarray, np
     return a[..., 0] * robot.v_max, a[..., 1] * robot.omega_max
 
 
-def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
-    """Map commands ``v`` (m/s) and ``w`` (rad/s) to float32 actions ``(..., 2)``, clipped to
-    ``[-1, 1]`` (a command beyond the robot's limits is saturated, as the env would)."""
-    if (  # a team's (R,) commands, every control step: one compiled call, the same floats
+def _team_commands(v: Any, w: Any) -> bool:
+    """Whether ``v`` and ``w`` are a team's ``(R,)`` float64 commands and the compiled kernels
+    are on: what the one-call paths of :func:`to_actions` and :func:`to_actions_and_speed`
+    take."""
+    return (
         type(v) is np.ndarray
         and type(w) is np.ndarray
         and v.dtype == _FLOAT64
@@ -36,7 +37,13 @@ def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
         and v.ndim == 1
         and v.shape == w.shape
         and compiled.mode() is not None
-    ):
+    )
+
+
+def to_actions(v: Any, w: Any, robot: RobotConfig) -> np.ndarray:
+    """Map commands ``v`` (m/s) and ``w`` (rad/s) to float32 actions ``(..., 2)``, clipped to
+    ``[-1, 1]`` (a command beyond the robot's limits is saturated, as the env would)."""
+    if _team_commands(v, w):  # every control step: one compiled call, the same floats
         out = np.empty((len(v), 2), np.float32)
         compiled.actions_of(v, w, robot.v_max, robot.omega_max, out)
         return out
@@ -54,15 +61,7 @@ def to_actions_and_speed(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`to_actions` of ``(N,)`` commands, and the forward speed ``(N,)`` (m/s, float64)
     those float32 actions send: ``|a_v| v_max``. One compiled call where the kernels are on."""
-    if (
-        type(v) is np.ndarray
-        and type(w) is np.ndarray
-        and v.dtype == _FLOAT64
-        and w.dtype == _FLOAT64
-        and v.ndim == 1
-        and v.shape == w.shape
-        and compiled.mode() is not None
-    ):
+    if _team_commands(v, w):
         out = np.empty((len(v), 2), np.float32)
         speed = np.empty(len(v))
         compiled.actions_and_speed(v, w, robot.v_max, robot.omega_max, out, speed)
