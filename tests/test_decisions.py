@@ -17,6 +17,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
 from baselines.decisions import (
+    CONTACT_WINDOW,
     CROWD_KEEP,
     CROWD_PRESSED_KEEP,
     CROWD_RELEASE,
@@ -158,6 +159,11 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
         ({"pressed_keep": 0.8}, "pressed_keep"),
         ({"keep": 0.9, "pressed_keep": 0.95}, "pressed_keep"),
         ({"keep": 0.9, "pressed_keep": 0.5}, "pressed_keep"),
+        ({"touched": 2}, "touched"),
+        ({"keep": 0.9, "touched": 0}, "touched"),
+        ({"keep": 0.9, "touched": 1.5}, "touched"),
+        ({"keep": 0.9, "only_in_crowd": True, "open_touched": 0}, "open_touched"),
+        ({"keep": 0.9, "open_touched": 2}, "open_touched"),
     ],
 )
 def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> None:
@@ -221,21 +227,25 @@ def test_release_holds_only_robots_that_rolled_since_they_decided() -> None:
 
 def test_bayes_holds_with_the_release_in_a_crowd_only() -> None:
     """``bayes``'s default decisions are ``Decisions.crowd``: the hold with the release where the
-    identifier models a crowd; at one robot per m^2 (open space) they are the plain threshold's,
-    bit for bit."""
-    for density, crowd in ((4.0, True), (1.0, False)):
-        env = anonloc_env.AnonLocEnv(scenario(30, 12, density), reward_fn=anonloc_env.EnergyCost())
+    identifier models a crowd; at one robot per m^2 (open space) the same for touched robots
+    only (``tests/test_touched.py``: on this short episode none is held); with misses the plain
+    threshold's, bit for bit."""
+    missing = dataclasses.replace(
+        scenario(30, 12, 1.0), camera=dataclasses.replace(scenario(30, 12).camera, p_miss=0.1)
+    )
+    for config, changes in ((scenario(30, 12, 4.0), 3), (scenario(30, 12, 1.0), 0), (missing, 0)):
+        env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
         team = baselines.make_team("bayes", env, excitation="uniform")
         rule = team.localizer.decisions
         assert (rule.keep, rule.release, rule.only_in_crowd) == (CROWD_KEEP, CROWD_RELEASE, True)
-        assert rule.pressed_keep == CROWD_PRESSED_KEEP
+        assert (rule.pressed_keep, rule.open_touched) == (CROWD_PRESSED_KEEP, CONTACT_WINDOW)
         plain = baselines.make_team("bayes", env, excitation="uniform", keep=THRESHOLD)
         assert plain.localizer.decisions.plain
         ours = run_episode(env, team, 700, max_pictures=12)
         theirs = run_episode(env, plain, 700, max_pictures=12)
         pairs = zip(ours.records, theirs.records, strict=True)
         changed = sum(a.estimate != b.estimate for a, b in pairs)
-        assert changed == (3 if crowd else 0)  # 3 of 360 robot-pictures at 4 per m^2
+        assert changed == changes  # 3 of 360 robot-pictures at 4 per m^2
 
 
 def test_the_crowds_hold_only_where_it_was_measured() -> None:
