@@ -5,7 +5,6 @@ a decided track's best continuation is the robot's own row; no new decision whil
 from __future__ import annotations
 
 import dataclasses
-import itertools
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +26,7 @@ from baselines.decisions import (
 from baselines.runner import run_episode
 from benchmarks.crowds import RULES, THRESHOLD, load_recorded, play, score_cell
 from benchmarks.excitations import scenario
+from tests.helpers import lost_decisions, wrong_decisions
 
 DATA = Path(__file__).parent / "data"
 #: ``uniform``, N = 100 at 4 per m^2, tuning seed 703 (see tests/test_crowds.py).
@@ -63,16 +63,6 @@ def _decide(
     return out, list(result.true_rows)
 
 
-def _lost(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    """Right decisions at one picture that are not right at the next."""
-    right = [(e >= 0) & (e == t) for e, t in zip(decisions, true, strict=False)]
-    return sum(int((a & ~b).sum()) for a, b in itertools.pairwise(right))
-
-
-def _wrong(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    return sum(int(((e >= 0) & (e != t)).sum()) for e, t in zip(decisions, true, strict=False))
-
-
 def test_plain_decisions_are_the_threshold() -> None:
     """Without hold and settle a robot is decided exactly where its top belief is >= 0.99."""
     config, result = load_recorded(str(FALL))
@@ -97,13 +87,13 @@ def test_hold_keeps_right_decisions_through_the_dips() -> None:
     filtered positions: 11 against none there, 1 wrong against 2, the hold's cost)."""
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(FALL, rules)
-    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (9, 1)
-    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (0, 0)
+    assert (lost_decisions(found["plain"], true), lost_decisions(found["hold"], true)) == (9, 1)
+    assert (wrong_decisions(found["plain"], true), wrong_decisions(found["hold"], true)) == (0, 0)
     assert rules["hold"].held == 20
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(PRESSED, rules)
-    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (7, 1)
-    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (0, 0)
+    assert (lost_decisions(found["plain"], true), lost_decisions(found["hold"], true)) == (7, 1)
+    assert (wrong_decisions(found["plain"], true), wrong_decisions(found["hold"], true)) == (0, 0)
 
 
 def test_a_decided_track_continues_at_the_robots_own_row() -> None:
@@ -142,7 +132,7 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
             assert not np.any((now >= 0) & (before < 0) & (identifier.pushed_run > 2))
         before, decided = now.copy(), decided + int((now >= 0).sum())
     found, true = _decide(FALL, {"settle": Decisions(settle=2), "plain": Decisions()})
-    assert _wrong(found["settle"], true) == 0
+    assert wrong_decisions(found["settle"], true) == 0
     assert sum(int((e >= 0).sum()) for e in found["plain"]) > decided  # 1,569 against 1,341
 
 
@@ -285,6 +275,7 @@ def test_pressed_keep_holds_pressed_robots_lower() -> None:
             "pressed": Decisions(keep=0.9, release=0.05, pressed_keep=0.8),
         }
         found, true = _decide(path, rules)
-        assert (_lost(found["release"], true), _lost(found["pressed"], true)) == lost
-        assert _wrong(found["release"], true) == _wrong(found["pressed"], true)
+        found_lost = tuple(lost_decisions(found[name], true) for name in ("release", "pressed"))
+        assert found_lost == lost
+        assert wrong_decisions(found["release"], true) == wrong_decisions(found["pressed"], true)
         assert (rules["release"].held, rules["pressed"].held) == held

@@ -6,7 +6,6 @@ misses, false positives or a moving camera they stay the plain threshold's."""
 from __future__ import annotations
 
 import dataclasses
-import itertools
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ from anonloc_env.identify import Identifier, SensorModel
 from baselines.decisions import CONTACT_WINDOW, CROWD_PRESSED_KEEP, Decisions, in_contact, in_crowd
 from benchmarks.crowds import THRESHOLD, load_recorded
 from benchmarks.excitations import scenario
+from tests.helpers import lost_decisions, wrong_decisions
 
 #: ``random``, N = 30 at one robot per m^2, seed 80001 of the twelfth grid (where the share
 #: right fell by 1.1 pt), 30 pictures, played at ``dfeb8ce``: ``python -m benchmarks.crowds
@@ -46,15 +46,6 @@ def _played(rules: dict[str, Decisions]) -> tuple[dict[str, list[np.ndarray]], l
     return out, list(result.true_rows), tops, since
 
 
-def _lost(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    right = [(e >= 0) & (e == t) for e, t in zip(decisions, true, strict=False)]
-    return sum(int((a & ~b).sum()) for a, b in itertools.pairwise(right))
-
-
-def _wrong(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    return sum(int(((e >= 0) & (e != t)).sum()) for e, t in zip(decisions, true, strict=False))
-
-
 def test_touched_robots_keep_their_decisions_in_open_space() -> None:
     """On the recorded episode the threshold loses 8 right decisions (each went undecided, none
     wrong); ``bayes``'s default loses 1 and holds 13, none wrong: as many as the crowd's hold on
@@ -68,9 +59,9 @@ def test_touched_robots_keep_their_decisions_in_open_space() -> None:
         "newest only": Decisions(keep=0.9, release=0.05, pressed_keep=0.8, touched=1),
     }
     found, true, tops, since = _played(rules)
-    lost = {name: _lost(found[name], true) for name in rules}
+    lost = {name: lost_decisions(found[name], true) for name in rules}
     assert lost == {"threshold": 8, "bayes": 1, "every robot": 1, "newest only": 4}
-    assert all(_wrong(found[name], true) == 0 for name in rules)
+    assert all(wrong_decisions(found[name], true) == 0 for name in rules)
     assert (rules["bayes"].held, rules["every robot"].held) == (13, 13)
     before = None
     for now, top, untouched in zip(found["bayes"], tops, since, strict=True):
