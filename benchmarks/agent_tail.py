@@ -21,6 +21,10 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   instead of resting (:class:`Crawl`; ``F = 0`` is its rest);
 - ``agent-delay-K``: the bundled agent whose robots rest only once sure at ``K`` pictures
   running (:class:`Delayed`; ``K = 1`` is its rest);
+- ``agent-still``: the bundled agent whose resting robots, on swarm duty, deviate against the
+  shared command as far as the budget allows instead of following it (:class:`StillOnDuty`: as
+  still as the duty allows; in free motion its rest); ``agent-still-energy-E`` the same with
+  ``E`` added to the ``energy*on_duty`` weight;
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -43,6 +47,7 @@ import numpy as np
 
 from agents.evaluation import censored, play
 from baselines.excitations.base import Excitation
+from baselines.excitations.candidates import GreedySettings
 from baselines.excitations.rest import RestWhenSure
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
@@ -91,6 +96,39 @@ class Delayed(RestWhenSure):
         self.resting = self.resting & (self.sure_for >= self.after)
 
 
+class StillOnDuty(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose resting robots, on swarm duty,
+    deviate against the shared command as far as the candidates' box allows (``v`` within
+    ``speed``, m/s, ``w`` within ``turn``, rad/s) instead of adding no deviation: they stand as
+    still as the duty allows, and fall behind it (``benchmarks.duty_energy.LeastTravel``'s
+    deviation, for the sure robots only). In free motion it is the rest itself."""
+
+    def __init__(self, inner: Excitation, sure: float, speed: float, turn: float) -> None:
+        super().__init__(inner, sure)
+        self.box = (float(speed), float(turn))
+        self.shared: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.shared = None
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        super().follow(v, w, budget)
+        self.shared = (np.asarray(v, np.float64), np.asarray(w, np.float64), float(budget))
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v, w = super().commands(step, dt)
+        if self.shared is None or self.shared[2] == 0.0:
+            return v, w
+        v_shared, w_shared, budget = self.shared
+        speed, turn = self.box
+        still = self.resting
+        return (
+            np.where(still, np.clip(-v_shared / budget, -speed, speed), v),
+            np.where(still, np.clip(-w_shared / budget, -turn, turn), w),
+        )
+
+
 def edited_agent(edit: Callable[[str, float], float]) -> Any:
     """The bundled agent's model with each weight ``w`` of term ``name`` replaced by
     ``edit(name, w)`` (in memory)."""
@@ -122,8 +160,11 @@ def variant(name: str) -> Callable[[], Excitation]:
     else:
         from agents.policy import LearnedExcitation
 
-        if base == "agent" or base.startswith(("agent-crawl-", "agent-delay-")):
+        if base in ("agent", "agent-still") or base.startswith(("agent-crawl-", "agent-delay-")):
             model = edited_agent(lambda term, w: w)
+        elif base.startswith("agent-still-energy-"):
+            add = float(base.removeprefix("agent-still-energy-"))
+            model = edited_agent(lambda term, w: w + add if term == "energy*on_duty" else w)
         elif base == "agent-nodecided":
             model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
         elif base.startswith("agent-size-"):
@@ -146,6 +187,9 @@ def variant(name: str) -> Callable[[], Excitation]:
         after = int(base.removeprefix("agent-delay-"))
         Delayed(inner(), sure, after)  # an after below 1 fails here, before any episode
         return lambda: Delayed(inner(), sure, after)
+    if base.startswith("agent-still"):
+        box = GreedySettings()
+        return lambda: StillOnDuty(inner(), sure, box.speed[1], box.turn)
     return lambda: RestWhenSure(inner(), sure)
 
 
