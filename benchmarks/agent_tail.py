@@ -202,6 +202,28 @@ def not_right(result: EpisodeResult, pictures: Sequence[int] = EARLY) -> np.ndar
     return out
 
 
+#: The bins of a robot's belief in its own row at the picture before it is counted not right
+#: (``--origins``): below 0.5, up to ``bayes``'s decision (0.99), up to the rest, and resting.
+ORIGIN_EDGES = (0.5, 0.99, REST)
+ORIGIN_NAMES = ("< 0.5", "0.5 to 0.99", f"0.99 to {REST}", f">= {REST}")
+
+
+def origins(result: EpisodeResult, picture: int) -> np.ndarray:
+    """``(4,)`` the robots not right at ``picture`` (the team's own records), counted by the
+    belief they gave their own row at the picture before (bins :data:`ORIGIN_NAMES`); a robot
+    with no record there counts in the first bin."""
+    before = {
+        r.robot: r.belief_true
+        for r in result.records
+        if r.picture == picture - 1 and r.localizer == ""
+    }
+    out = np.zeros(len(ORIGIN_NAMES), np.int64)
+    for r in result.records:
+        if r.picture == picture and r.localizer == "" and not r.correct:
+            out[int(np.searchsorted(ORIGIN_EDGES, before.get(r.robot, 0.0), side="right"))] += 1
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--condition", default="free N=300")
@@ -209,12 +231,18 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=800_100)
     parser.add_argument("--pictures", type=int, default=30)
     parser.add_argument("--variants", nargs="+", default=["uniform", "agent", "agent-norest"])
+    parser.add_argument(
+        "--origins",
+        type=int,
+        default=None,
+        help="also count the robots not right at this picture by their belief the picture before",
+    )
     args = parser.parse_args()
     makers = {name: variant(name) for name in args.variants}  # unknown names fail first
     conditions = evaluation_conditions() | crowded_conditions() | beyond_conditions()
     config, condition, budget = conditions[args.condition]
     seeds = range(args.first_seed, args.first_seed + args.episodes)
-    firsts, shares = {}, {}
+    firsts, shares, origin = {}, {}, {}
     header = " | ".join(f"not right at {k}" for k in EARLY)
     print(f"| variant | pictures | energy (m) | {header} |\n" + "|---" * (3 + len(EARLY)) + "|")
     for name, make in makers.items():
@@ -222,6 +250,8 @@ def main() -> None:
         results = play(config, condition, budget, make, seeds, args.pictures)
         firsts[name] = np.array([censored(r, args.pictures) for r in results], np.float64)
         shares[name] = np.stack([not_right(r) for r in results])
+        if args.origins is not None:
+            origin[name] = sum(origins(r, args.origins) for r in results)
         cells = " | ".join(f"{100 * s:.3f} %" for s in shares[name].mean(axis=0))
         mean = firsts[name].mean(axis=0)
         seconds = time.perf_counter() - start
@@ -239,6 +269,16 @@ def main() -> None:
             else:  # the reference has every robot right there: no ratio
                 texts.append("n/a")
         print(f"| {name} | {' | '.join(texts)} |")
+    if origin:
+        k = args.origins
+        print(
+            f"\n| variant | not right at {k}, by belief in own row at {k - 1}: "
+            + " | ".join(ORIGIN_NAMES)
+            + " |"
+        )
+        print("|---" * (1 + len(ORIGIN_NAMES)) + "|")
+        for name, counts in origin.items():
+            print(f"| {name} | " + " | ".join(str(int(c)) for c in counts) + " |")
 
 
 if __name__ == "__main__":

@@ -101,3 +101,17 @@ def test_still_on_duty_opposes_the_shared_command_only_for_resting_robots() -> N
     v, w = still.commands(None, 0.05)  # type: ignore[arg-type]  # reads nothing of the step
     np.testing.assert_allclose(v, [-0.3, -0.5, 0.3])
     np.testing.assert_allclose(w, [0.5, -1.0, -0.5])
+
+
+def test_origins_bin_the_robots_not_right_by_their_belief_before() -> None:
+    """Each robot not right at picture 4 counts once, in the bin of its belief in its own row
+    at picture 3 (a robot with no record there in the lowest); right robots are not counted."""
+    from benchmarks.agent_tail import origins
+
+    def rec(robot: int, picture: int, correct: bool, belief: float) -> PictureRecord:
+        return PictureRecord("", robot, picture, float(picture), -1, robot, correct, belief, 0.0)
+
+    before = [rec(i, 3, i > 1, b) for i, b in enumerate((0.3, 0.9, 0.995, 0.99995, 0.2, 0.6))]
+    after = [rec(i, 4, i == 5, 0.5) for i in (0, 1, 2, 3, 5)] + [rec(6, 4, False, 0.5)]
+    result = EpisodeResult(seed=0, n_robots=7, records=before + after)
+    assert origins(result, 4).tolist() == [2, 1, 1, 1]
