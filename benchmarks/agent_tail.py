@@ -25,6 +25,7 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   shared command as far as the budget allows instead of following it (:class:`StillOnDuty`: as
   still as the duty allows; in free motion its rest); ``agent-still-energy-E`` the same with
   ``E`` added to the ``energy*on_duty`` weight;
+- ``agent-noprobe``: the bundled agent at rest without its probe (``probe=None``);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -160,7 +161,9 @@ def variant(name: str) -> Callable[[], Excitation]:
     else:
         from agents.policy import LearnedExcitation
 
-        if base in ("agent", "agent-still") or base.startswith(("agent-crawl-", "agent-delay-")):
+        if base in ("agent", "agent-still", "agent-noprobe") or base.startswith(
+            ("agent-crawl-", "agent-delay-")
+        ):
             model = edited_agent(lambda term, w: w)
         elif base.startswith("agent-still-energy-"):
             add = float(base.removeprefix("agent-still-energy-"))
@@ -187,6 +190,8 @@ def variant(name: str) -> Callable[[], Excitation]:
         after = int(base.removeprefix("agent-delay-"))
         Delayed(inner(), sure, after)  # an after below 1 fails here, before any episode
         return lambda: Delayed(inner(), sure, after)
+    if base == "agent-noprobe":
+        return lambda: RestWhenSure(inner(), sure, probe=None)
     if base.startswith("agent-still"):
         box = GreedySettings()
         return lambda: StillOnDuty(inner(), sure, box.speed[1], box.turn)
