@@ -366,7 +366,8 @@ class BayesLocalizer(Localizer):
 
     With none of ``keep``, ``settle`` and ``release`` given, the decisions are
     ``Decisions.crowd``: the hold with the release where the identifier models a crowd (above
-    one robot per m^2, clean pictures), the plain threshold elsewhere.
+    one robot per m^2, clean pictures), the same for robots touched in the newest two intervals
+    in open space with clean pictures and a fixed camera, the plain threshold elsewhere.
     """
 
     needs = 1

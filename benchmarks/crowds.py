@@ -215,9 +215,10 @@ def without_escape(
 #: Decision rules scored beside ``bayes``'s own (``--rules``; ``baselines.decisions``): the
 #: keyword arguments of ``Decisions`` besides the threshold. The decisions never reach the motion
 #: (every excitation reads beliefs), so each rule is scored on the very episodes ``bayes`` plays.
-#: ``threshold`` is the plain rule (``bayes``'s own in open space, and in a crowd before the tenth
-#: round); ``hold 0.9, release 0.05`` the tenth round's default in a crowd, ``pressed 0.8`` the
-#: eleventh's (``Decisions.crowd``).
+#: ``threshold`` is the plain rule (``bayes``'s own in open space before the thirteenth round,
+#: and in a crowd before the tenth); ``hold 0.9, release 0.05`` the tenth round's default in a
+#: crowd, ``pressed 0.8`` the eleventh's (``Decisions.crowd`` in a crowd; in open space since the
+#: thirteenth round it holds touched robots alone).
 RULES: dict[str, dict[str, float]] = {
     "threshold": {},
     "hold 0.9, release 0.05": {"keep": 0.9, "release": 0.05},

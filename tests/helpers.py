@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 from pathlib import Path
@@ -57,3 +58,15 @@ class RecordedUniform(UniformChoice):
         v, w = super().commands(step, dt)
         self.given.append((v.copy(), w.copy()))
         return v, w
+
+
+def lost_decisions(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
+    """Right decisions at one picture that are not right at the next (``decisions``: each
+    picture's ``(R,)`` decided rows, -1 undecided; ``true``: each picture's true rows)."""
+    right = [(e >= 0) & (e == t) for e, t in zip(decisions, true, strict=False)]
+    return sum(int((a & ~b).sum()) for a, b in itertools.pairwise(right))
+
+
+def wrong_decisions(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
+    """Decisions (robot-pictures) on a row that is not the robot's."""
+    return sum(int(((e >= 0) & (e != t)).sum()) for e, t in zip(decisions, true, strict=False))

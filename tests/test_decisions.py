@@ -5,7 +5,6 @@ a decided track's best continuation is the robot's own row; no new decision whil
 from __future__ import annotations
 
 import dataclasses
-import itertools
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from anonloc_env.config import EnvConfig
 from anonloc_env.identify import Identifier, SensorModel
 from anonloc_env.identify.lineage import continuations, decided_tracks
 from baselines.decisions import (
+    CONTACT_WINDOW,
     CROWD_KEEP,
     CROWD_PRESSED_KEEP,
     CROWD_RELEASE,
@@ -26,6 +26,7 @@ from baselines.decisions import (
 from baselines.runner import run_episode
 from benchmarks.crowds import RULES, THRESHOLD, load_recorded, play, score_cell
 from benchmarks.excitations import scenario
+from tests.helpers import lost_decisions, wrong_decisions
 
 DATA = Path(__file__).parent / "data"
 #: ``uniform``, N = 100 at 4 per m^2, tuning seed 703 (see tests/test_crowds.py).
@@ -62,16 +63,6 @@ def _decide(
     return out, list(result.true_rows)
 
 
-def _lost(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    """Right decisions at one picture that are not right at the next."""
-    right = [(e >= 0) & (e == t) for e, t in zip(decisions, true, strict=False)]
-    return sum(int((a & ~b).sum()) for a, b in itertools.pairwise(right))
-
-
-def _wrong(decisions: list[np.ndarray], true: list[np.ndarray]) -> int:
-    return sum(int(((e >= 0) & (e != t)).sum()) for e, t in zip(decisions, true, strict=False))
-
-
 def test_plain_decisions_are_the_threshold() -> None:
     """Without hold and settle a robot is decided exactly where its top belief is >= 0.99."""
     config, result = load_recorded(str(FALL))
@@ -96,13 +87,13 @@ def test_hold_keeps_right_decisions_through_the_dips() -> None:
     filtered positions: 11 against none there, 1 wrong against 2, the hold's cost)."""
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(FALL, rules)
-    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (9, 1)
-    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (0, 0)
+    assert (lost_decisions(found["plain"], true), lost_decisions(found["hold"], true)) == (9, 1)
+    assert (wrong_decisions(found["plain"], true), wrong_decisions(found["hold"], true)) == (0, 0)
     assert rules["hold"].held == 20
     rules = {"plain": Decisions(), "hold": Decisions(keep=0.9)}
     found, true = _decide(PRESSED, rules)
-    assert (_lost(found["plain"], true), _lost(found["hold"], true)) == (7, 1)
-    assert (_wrong(found["plain"], true), _wrong(found["hold"], true)) == (0, 0)
+    assert (lost_decisions(found["plain"], true), lost_decisions(found["hold"], true)) == (7, 1)
+    assert (wrong_decisions(found["plain"], true), wrong_decisions(found["hold"], true)) == (0, 0)
 
 
 def test_a_decided_track_continues_at_the_robots_own_row() -> None:
@@ -141,7 +132,7 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
             assert not np.any((now >= 0) & (before < 0) & (identifier.pushed_run > 2))
         before, decided = now.copy(), decided + int((now >= 0).sum())
     found, true = _decide(FALL, {"settle": Decisions(settle=2), "plain": Decisions()})
-    assert _wrong(found["settle"], true) == 0
+    assert wrong_decisions(found["settle"], true) == 0
     assert sum(int((e >= 0).sum()) for e in found["plain"]) > decided  # 1,569 against 1,341
 
 
@@ -158,6 +149,11 @@ def test_settle_takes_no_new_decision_while_jammed() -> None:
         ({"pressed_keep": 0.8}, "pressed_keep"),
         ({"keep": 0.9, "pressed_keep": 0.95}, "pressed_keep"),
         ({"keep": 0.9, "pressed_keep": 0.5}, "pressed_keep"),
+        ({"touched": 2}, "touched"),
+        ({"keep": 0.9, "touched": 0}, "touched"),
+        ({"keep": 0.9, "touched": 1.5}, "touched"),
+        ({"keep": 0.9, "only_in_crowd": True, "open_touched": 0}, "open_touched"),
+        ({"keep": 0.9, "open_touched": 2}, "open_touched"),
     ],
 )
 def test_decisions_refuse_bad_settings(kwargs: dict[str, float], match: str) -> None:
@@ -221,21 +217,25 @@ def test_release_holds_only_robots_that_rolled_since_they_decided() -> None:
 
 def test_bayes_holds_with_the_release_in_a_crowd_only() -> None:
     """``bayes``'s default decisions are ``Decisions.crowd``: the hold with the release where the
-    identifier models a crowd; at one robot per m^2 (open space) they are the plain threshold's,
-    bit for bit."""
-    for density, crowd in ((4.0, True), (1.0, False)):
-        env = anonloc_env.AnonLocEnv(scenario(30, 12, density), reward_fn=anonloc_env.EnergyCost())
+    identifier models a crowd; at one robot per m^2 (open space) the same for touched robots
+    only (``tests/test_touched.py``: on this short episode none is held); with misses the plain
+    threshold's, bit for bit."""
+    missing = dataclasses.replace(
+        scenario(30, 12, 1.0), camera=dataclasses.replace(scenario(30, 12).camera, p_miss=0.1)
+    )
+    for config, changes in ((scenario(30, 12, 4.0), 3), (scenario(30, 12, 1.0), 0), (missing, 0)):
+        env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
         team = baselines.make_team("bayes", env, excitation="uniform")
         rule = team.localizer.decisions
         assert (rule.keep, rule.release, rule.only_in_crowd) == (CROWD_KEEP, CROWD_RELEASE, True)
-        assert rule.pressed_keep == CROWD_PRESSED_KEEP
+        assert (rule.pressed_keep, rule.open_touched) == (CROWD_PRESSED_KEEP, CONTACT_WINDOW)
         plain = baselines.make_team("bayes", env, excitation="uniform", keep=THRESHOLD)
         assert plain.localizer.decisions.plain
         ours = run_episode(env, team, 700, max_pictures=12)
         theirs = run_episode(env, plain, 700, max_pictures=12)
         pairs = zip(ours.records, theirs.records, strict=True)
         changed = sum(a.estimate != b.estimate for a, b in pairs)
-        assert changed == (3 if crowd else 0)  # 3 of 360 robot-pictures at 4 per m^2
+        assert changed == changes  # 3 of 360 robot-pictures at 4 per m^2
 
 
 def test_the_crowds_hold_only_where_it_was_measured() -> None:
@@ -275,6 +275,7 @@ def test_pressed_keep_holds_pressed_robots_lower() -> None:
             "pressed": Decisions(keep=0.9, release=0.05, pressed_keep=0.8),
         }
         found, true = _decide(path, rules)
-        assert (_lost(found["release"], true), _lost(found["pressed"], true)) == lost
-        assert _wrong(found["release"], true) == _wrong(found["pressed"], true)
+        found_lost = tuple(lost_decisions(found[name], true) for name in ("release", "pressed"))
+        assert found_lost == lost
+        assert wrong_decisions(found["release"], true) == wrong_decisions(found["pressed"], true)
         assert (rules["release"].held, rules["pressed"].held) == held
