@@ -82,7 +82,7 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
     if not isinstance(actions, dict) and not isinstance(actions, Mapping):
         raise TypeError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
     try:
-        rows = [actions[agent] for agent in agents]
+        rows = _rows_of(actions, agents)
     except KeyError as missing:
         raise ValueError(
             f"actions has no entry for live agent {missing.args[0]!r}; every agent in env.agents "
@@ -101,7 +101,15 @@ def stack_actions(actions: Mapping[str, Any], agents: Sequence[str]) -> np.ndarr
                     f"action of {agent!r} must be 2 numbers (v, w) scaled to [-1, 1], got {row!r}"
                 )
         raise ValueError(f"actions must be 2 numbers per agent, got {actions!r}")
-    return _finite_clipped(stacked, lambda i: repr(agents[i]))
+    return _checked_copy(stacked, lambda i: repr(agents[i]))
+
+
+def _rows_of(actions: Mapping[str, Any], agents: Sequence[str]) -> Sequence[Any]:
+    """Each agent's entry of ``actions``, in the order of ``agents`` (one loop in C for a
+    team); a missing agent raises ``KeyError`` naming it."""
+    if len(agents) > 1:
+        return operator.itemgetter(*agents)(actions)  # a tuple
+    return [actions[agent] for agent in agents]
 
 
 def check_action_array(actions: Any, n: int) -> np.ndarray:
@@ -118,14 +126,21 @@ def check_action_array(actions: Any, n: int) -> np.ndarray:
             f"actions must be an ({n}, 2) numeric array (v, w) scaled to [-1, 1], got shape "
             f"{array.shape} of {array.dtype}"
         )
-    # Always a copy: the caller's array is not clipped.
-    if array.dtype in _JOINABLE and compiled.mode() is not None:  # one compiled call
-        out = np.empty((n, 2))
-        bad = compiled.checked_actions(array, out)
+    return _checked_copy(array, lambda i: f"robot {i}")
+
+
+def _checked_copy(stacked: np.ndarray, name: Callable[[int], str]) -> np.ndarray:
+    """A new float64 array of the ``(N, 2)`` numeric ``stacked``, clipped to ``[-1, 1]``, after
+    checking that it is finite (``name(i)`` names row ``i`` in the error): one compiled call for
+    float32 and float64 (:func:`anonloc_env.compiled.checked_actions`), else
+    :func:`_finite_clipped` on a float64 copy. The caller's array is never changed."""
+    if stacked.dtype in _JOINABLE and compiled.mode() is not None:
+        out = np.empty(stacked.shape)
+        bad = compiled.checked_actions(stacked, out)
         if bad >= 0:
-            raise ValueError(f"action of robot {bad} is not finite: {out[bad].tolist()}")
+            raise ValueError(f"action of {name(bad)} is not finite: {out[bad].tolist()}")
         return out
-    return _finite_clipped(array.astype(np.float64), lambda i: f"robot {i}")
+    return _finite_clipped(stacked.astype(np.float64), name)
 
 
 def _finite_clipped(stacked: np.ndarray, name: Callable[[int], str]) -> np.ndarray:
@@ -144,8 +159,9 @@ def _finite_clipped(stacked: np.ndarray, name: Callable[[int], str]) -> np.ndarr
     return stacked
 
 
-def _stack_vectors(rows: list[Any]) -> np.ndarray | None:
-    """``(N, 2)`` float64 array of ``rows``, or None if they are not all length-2 vectors.
+def _stack_vectors(rows: Sequence[Any]) -> np.ndarray | None:
+    """``(N, 2)`` array of ``rows``, or None if they are not all length-2 vectors: their own
+    dtype where they are all contiguous float32 or all float64 arrays (read-only), else float64.
 
     Every row has length 2, and their concatenation is flat (``np.concatenate`` refuses rows of
     different dimensions, and scalars), so every row has shape ``(2,)``. Casting to float64 is
@@ -168,11 +184,11 @@ _JOINABLE = frozenset((np.dtype(np.float32), np.dtype(np.float64)))
 _DTYPE = operator.attrgetter("dtype")
 
 
-def _joined(rows: list[Any]) -> np.ndarray | None:
-    """``np.concatenate(rows, dtype=np.float64)`` for rows (each of length 2) that are all
-    contiguous numpy arrays of one dtype, float32 or float64, by joining their bytes: on a
-    hundred rows about a third of ``np.concatenate``'s cost, and the same values. None for
-    anything else (the caller concatenates). The joined length is two items a row exactly only
+def _joined(rows: Sequence[Any]) -> np.ndarray | None:
+    """``np.concatenate(rows)`` (read-only) for rows (each of length 2) that are all contiguous
+    numpy arrays of one dtype, float32 or float64, by joining their bytes: on a hundred rows
+    about a third of ``np.concatenate``'s cost, and the same values. None for anything else
+    (the caller concatenates, as float64). The joined length is two items a row exactly only
     where every row is ``(2,)``."""
     try:
         kinds = set(map(_DTYPE, rows))
@@ -187,7 +203,7 @@ def _joined(rows: list[Any]) -> np.ndarray | None:
         return None
     if len(data) != 2 * kind.itemsize * len(rows):
         return None
-    return np.frombuffer(data, kind).astype(np.float64)
+    return np.frombuffer(data, kind)
 
 
 def _is_numeric(row: Any) -> bool:

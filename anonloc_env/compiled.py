@@ -165,6 +165,20 @@ def checked_actions(actions: np.ndarray, out: np.ndarray) -> int:
 
 
 @jit
+def energy_rewards(
+    v: np.ndarray, w: np.ndarray, cost: float, duration: float, factor: float, out: np.ndarray
+) -> None:
+    """``EnergyCost``'s rewards of ``(N,)`` commands ``v``, ``w`` into ``out``: the wheel
+    travel as ``anonloc_env.rewards.wheel_travel`` computes it (``|w| cost``, plus ``|v|``,
+    times ``duration``), times ``factor`` (minus the energy weight), rounded at each step."""
+    for k in range(v.shape[0]):
+        travel = abs(w[k]) * cost
+        travel = travel + abs(v[k])
+        travel = travel * duration
+        out[k] = travel * factor
+
+
+@jit
 def scaled(v: np.ndarray, w: np.ndarray, inv_h: float, h: float, out: np.ndarray) -> None:
     """``World.step``'s sub-step quantities of the commands ``v``, ``w`` ``(N,)`` into ``out``
     ``(3, N)``: the force ``v / h`` (as ``v * inv_h``), the free move ``v h``, the turn ``w h``."""

@@ -403,6 +403,8 @@ class AnonLocEnv(ParallelEnv[str, dict[str, np.ndarray], np.ndarray], EzPickle):
             self.agents = []
         if not rewards:
             return motion, new_picture, time, np.zeros(len(v)), truncated
+        if type(self.reward_fn) is EnergyCost:  # it reads the commands only
+            return motion, new_picture, time, EnergyCost.of(self.config, v, w), truncated
         context = StepContext(
             config=self.config,
             time=time,

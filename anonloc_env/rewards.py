@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
+from anonloc_env import compiled
 from anonloc_env.camera import Picture
 from anonloc_env.config import EnvConfig
 from anonloc_env.odometry import Interval
@@ -171,9 +172,34 @@ class EnergyCost:
 
     def __call__(self, context: StepContext) -> np.ndarray:
         """Minus the weighted wheel travel of each robot."""
-        reward = energy(context.config, context.v, context.w)
-        reward *= -context.config.reward.energy_weight
+        return self.of(context.config, context.v, context.w)
+
+    @staticmethod
+    def of(config: EnvConfig, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The ``(N,)`` float64 rewards of commands ``v``, ``w`` ``(N,)`` held for a step, what
+        a call with their :class:`StepContext` returns (the env's step calls this directly and
+        builds no context)."""
+        factor = -config.reward.energy_weight
+        if _commands(v, w):  # one compiled call, the same floats
+            out = np.empty(len(v))
+            compiled.energy_rewards(v, w, turn_cost(config), config.dt, factor, out)
+            return out
+        reward = energy(config, v, w)
+        reward *= factor
         return reward
+
+
+def _commands(v: object, w: object) -> bool:
+    """Whether ``v`` and ``w`` are ``(N,)`` float64 arrays and the compiled kernels are on."""
+    return (
+        type(v) is np.ndarray
+        and type(w) is np.ndarray
+        and v.dtype == np.float64
+        and w.dtype == np.float64
+        and v.ndim == 1
+        and v.shape == w.shape
+        and compiled.mode() is not None
+    )
 
 
 class InformationGain:

@@ -19,7 +19,9 @@ step), the bytes of each array with its dtype and each dict's keys in sorted ord
 * ``belief-100``: N = 100, 2 copies, 60 decisions;
 * ``train``: ``anonloc train``'s VecEnv (``benchmarks.train_bundled.BUNDLED``: 12 copies of
   the ``mixed`` condition, 3 to 40 robots, redrawn at every episode's end), 70 decisions;
-* ``raw``: the PettingZoo parallel env, N = 100, seed 5, 300 steps of uniform random actions.
+* ``raw``: the PettingZoo parallel env, N = 100, seed 5, 300 steps of uniform random actions;
+* ``raw-energy``: the same with the energy reward (``EnergyCost``) at 4 robots per m² (the raw
+  env of ``bench_physics.py``), float32 action rows as views of one array.
 
 The table prints each case's hash per checkout and whether they all agree. A checkout that
 lacks a case's code (an older one) prints the error's type instead.
@@ -33,7 +35,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-CASES = ("belief-30", "belief-12", "belief-100", "train", "raw")
+CASES = ("belief-30", "belief-12", "belief-100", "train", "raw", "raw-energy")
 
 WORKER = """
 import hashlib, sys
@@ -88,12 +90,24 @@ def raw():
         feed(h, env.step({a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}))
     return h.hexdigest()[:16]
 
+def raw_energy():
+    import anonloc_env
+    reward = anonloc_env.EnergyCost()
+    env = anonloc_env.parallel_env(n_robots=100, arena_size=(5.0, 5.0), reward_fn=reward)
+    h, rng = hashlib.sha256(), np.random.default_rng(2)
+    feed(h, env.reset(seed=6))
+    for _ in range(300):
+        actions = rng.uniform(-1, 1, (100, 2)).astype(np.float32)
+        feed(h, env.step(dict(zip(env.agents, actions))))
+    return h.hexdigest()[:16]
+
 RUN = {
     "belief-30": lambda: belief(30, 4, 250, True),
     "belief-12": lambda: belief(12, 2, 250, False),
     "belief-100": lambda: belief(100, 2, 60, False),
     "train": train,
     "raw": raw,
+    "raw-energy": raw_energy,
 }
 for case in sys.argv[1:]:
     try:

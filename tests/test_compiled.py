@@ -271,7 +271,12 @@ def _actions_both_ways(seed: int) -> list[object]:
     """``to_actions``, ``to_actions_and_speed`` (with the speed sent) and ``check_action_array``
     of commands and actions with NaN, infinities, signed zeros, subnormals and values past the
     limits: every array's bytes, every error."""
-    from anonloc_env.actions import check_action_array, to_actions, to_actions_and_speed
+    from anonloc_env.actions import (
+        check_action_array,
+        stack_actions,
+        to_actions,
+        to_actions_and_speed,
+    )
 
     robot = RobotConfig()
     special = [np.nan, np.inf, -np.inf, 0.0, -0.0, 5e-324, 1e308, -1e308, 1.0, -1.0]
@@ -293,7 +298,30 @@ def _actions_both_ways(seed: int) -> list[object]:
                 out.append(check_action_array(given, n).tobytes())
             except ValueError as error:
                 out.append(str(error))
+            agents = [f"robot_{i}" for i in range(n)]  # the env's dicts: rows joined as bytes
+            try:
+                out.append(stack_actions(dict(zip(agents, given, strict=True)), agents).tobytes())
+            except ValueError as error:
+                out.append(str(error))
     return out
+
+
+def test_energy_rewards_are_numpys(request: pytest.FixtureRequest) -> None:
+    """``EnergyCost``'s rewards in one compiled call: numpy's bytes, for commands with signed
+    zeros, subnormals, huge values and the column views the env passes."""
+    config = make_config(n_robots=3, reward={"turn_cost": 0.037})
+    rng = np.random.default_rng(5)
+    special = np.array([0.0, -0.0, 5e-324, -5e-324, 1e300, -1e300, 0.3, -2.0])
+    cases = []
+    for case in range(200):
+        commands = rng.normal(scale=float(rng.choice([0.01, 1.0, 50.0])), size=(int(case % 13), 2))
+        if len(commands):
+            commands.flat[rng.integers(0, commands.size, 3)] = rng.choice(special, 3)
+        cases.append(commands)
+    fast = [EnergyCost.of(config, c[:, 0], c[:, 1]).tobytes() for c in cases]
+    request.getfixturevalue("numpy_only")
+    for commands, got in zip(cases, fast, strict=True):
+        assert got == EnergyCost.of(config, commands[:, 0], commands[:, 1]).tobytes()
 
 
 def test_actions_are_converted_and_checked_as_numpy_does(request: pytest.FixtureRequest) -> None:
