@@ -21,6 +21,11 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   instead of resting (:class:`Crawl`; ``F = 0`` is its rest);
 - ``agent-delay-K``: the bundled agent whose robots rest only once sure at ``K`` pictures
   running (:class:`Delayed`; ``K = 1`` is its rest);
+- ``agent-still``: the bundled agent whose resting robots, on swarm duty, deviate against the
+  shared command as far as the budget allows instead of following it (:class:`StillOnDuty`: as
+  still as the duty allows; in free motion its rest); ``agent-still-energy-E`` the same with
+  ``E`` added to the ``energy*on_duty`` weight;
+- ``agent-noprobe``: the bundled agent at rest without its probe (``probe=None``);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -43,6 +48,7 @@ import numpy as np
 
 from agents.evaluation import censored, play
 from baselines.excitations.base import Excitation
+from baselines.excitations.candidates import GreedySettings
 from baselines.excitations.rest import RestWhenSure
 from baselines.registry import EXCITATIONS
 from baselines.runner import EpisodeResult
@@ -91,6 +97,39 @@ class Delayed(RestWhenSure):
         self.resting = self.resting & (self.sure_for >= self.after)
 
 
+class StillOnDuty(RestWhenSure):
+    """:class:`~baselines.excitations.rest.RestWhenSure` whose resting robots, on swarm duty,
+    deviate against the shared command as far as the candidates' box allows (``v`` within
+    ``speed``, m/s, ``w`` within ``turn``, rad/s) instead of adding no deviation: they stand as
+    still as the duty allows, and fall behind it (``benchmarks.duty_energy.LeastTravel``'s
+    deviation, for the sure robots only). In free motion it is the rest itself."""
+
+    def __init__(self, inner: Excitation, sure: float, speed: float, turn: float) -> None:
+        super().__init__(inner, sure)
+        self.box = (float(speed), float(turn))
+        self.shared: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def reset(self, rngs: Sequence[np.random.Generator]) -> None:
+        super().reset(rngs)
+        self.shared = None
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        super().follow(v, w, budget)
+        self.shared = (np.asarray(v, np.float64), np.asarray(w, np.float64), float(budget))
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        v, w = super().commands(step, dt)
+        if self.shared is None or self.shared[2] == 0.0:
+            return v, w
+        v_shared, w_shared, budget = self.shared
+        speed, turn = self.box
+        still = self.resting
+        return (
+            np.where(still, np.clip(-v_shared / budget, -speed, speed), v),
+            np.where(still, np.clip(-w_shared / budget, -turn, turn), w),
+        )
+
+
 def edited_agent(edit: Callable[[str, float], float]) -> Any:
     """The bundled agent's model with each weight ``w`` of term ``name`` replaced by
     ``edit(name, w)`` (in memory)."""
@@ -122,8 +161,13 @@ def variant(name: str) -> Callable[[], Excitation]:
     else:
         from agents.policy import LearnedExcitation
 
-        if base == "agent" or base.startswith(("agent-crawl-", "agent-delay-")):
+        if base in ("agent", "agent-still", "agent-noprobe") or base.startswith(
+            ("agent-crawl-", "agent-delay-")
+        ):
             model = edited_agent(lambda term, w: w)
+        elif base.startswith("agent-still-energy-"):
+            add = float(base.removeprefix("agent-still-energy-"))
+            model = edited_agent(lambda term, w: w + add if term == "energy*on_duty" else w)
         elif base == "agent-nodecided":
             model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
         elif base.startswith("agent-size-"):
@@ -146,6 +190,11 @@ def variant(name: str) -> Callable[[], Excitation]:
         after = int(base.removeprefix("agent-delay-"))
         Delayed(inner(), sure, after)  # an after below 1 fails here, before any episode
         return lambda: Delayed(inner(), sure, after)
+    if base == "agent-noprobe":
+        return lambda: RestWhenSure(inner(), sure, probe=None)
+    if base.startswith("agent-still"):
+        box = GreedySettings()
+        return lambda: StillOnDuty(inner(), sure, box.speed[1], box.turn)
     return lambda: RestWhenSure(inner(), sure)
 
 
@@ -158,6 +207,28 @@ def not_right(result: EpisodeResult, pictures: Sequence[int] = EARLY) -> np.ndar
     return out
 
 
+#: The bins of a robot's belief in its own row at the picture before it is counted not right
+#: (``--origins``): below 0.5, up to ``bayes``'s decision (0.99), up to the rest, and resting.
+ORIGIN_EDGES = (0.5, 0.99, REST)
+ORIGIN_NAMES = ("< 0.5", "0.5 to 0.99", f"0.99 to {REST}", f">= {REST}")
+
+
+def origins(result: EpisodeResult, picture: int) -> np.ndarray:
+    """``(4,)`` the robots not right at ``picture`` (the team's own records), counted by the
+    belief they gave their own row at the picture before (bins :data:`ORIGIN_NAMES`); a robot
+    with no record there counts in the first bin."""
+    before = {
+        r.robot: r.belief_true
+        for r in result.records
+        if r.picture == picture - 1 and r.localizer == ""
+    }
+    out = np.zeros(len(ORIGIN_NAMES), np.int64)
+    for r in result.records:
+        if r.picture == picture and r.localizer == "" and not r.correct:
+            out[int(np.searchsorted(ORIGIN_EDGES, before.get(r.robot, 0.0), side="right"))] += 1
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--condition", default="free N=300")
@@ -165,12 +236,18 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=800_100)
     parser.add_argument("--pictures", type=int, default=30)
     parser.add_argument("--variants", nargs="+", default=["uniform", "agent", "agent-norest"])
+    parser.add_argument(
+        "--origins",
+        type=int,
+        default=None,
+        help="also count the robots not right at this picture by their belief the picture before",
+    )
     args = parser.parse_args()
     makers = {name: variant(name) for name in args.variants}  # unknown names fail first
     conditions = evaluation_conditions() | crowded_conditions() | beyond_conditions()
     config, condition, budget = conditions[args.condition]
     seeds = range(args.first_seed, args.first_seed + args.episodes)
-    firsts, shares = {}, {}
+    firsts, shares, origin = {}, {}, {}
     header = " | ".join(f"not right at {k}" for k in EARLY)
     print(f"| variant | pictures | energy (m) | {header} |\n" + "|---" * (3 + len(EARLY)) + "|")
     for name, make in makers.items():
@@ -178,6 +255,8 @@ def main() -> None:
         results = play(config, condition, budget, make, seeds, args.pictures)
         firsts[name] = np.array([censored(r, args.pictures) for r in results], np.float64)
         shares[name] = np.stack([not_right(r) for r in results])
+        if args.origins is not None:
+            origin[name] = sum(origins(r, args.origins) for r in results)
         cells = " | ".join(f"{100 * s:.3f} %" for s in shares[name].mean(axis=0))
         mean = firsts[name].mean(axis=0)
         seconds = time.perf_counter() - start
@@ -195,6 +274,16 @@ def main() -> None:
             else:  # the reference has every robot right there: no ratio
                 texts.append("n/a")
         print(f"| {name} | {' | '.join(texts)} |")
+    if origin:
+        k = args.origins
+        print(
+            f"\n| variant | not right at {k}, by belief in own row at {k - 1}: "
+            + " | ".join(ORIGIN_NAMES)
+            + " |"
+        )
+        print("|---" * (1 + len(ORIGIN_NAMES)) + "|")
+        for name, counts in origin.items():
+            print(f"| {name} | " + " | ".join(str(int(c)) for c in counts) + " |")
 
 
 if __name__ == "__main__":

@@ -6,14 +6,20 @@ Issue 24's first target asks the agent for no more pictures than ``uniform`` at 
 deviation (``baselines.excitations.SwarmDuty``), and the energy to 99 % counts the wheel travel of
 both. This script plays, on the same seeds:
 
-* ``uniform`` (its deviation drawn in the agent's box), and
+* ``uniform`` (its deviation drawn in the agent's box),
+* the duty's own travel: every robot follows the shared command with no deviation at all
+  (``baselines.excitations.base.Still`` as the deviation), which identifies nobody, and
 * the least travel the duty allows (:class:`LeastTravel`): every robot's deviation opposes the
   shared command as far as its budget allows, which is the least wheel travel any policy on duty
   can spend up to a given picture, whatever it learned;
 
-and prints, per condition, that least travel at ``uniform``'s picture to 99 % as a share of
-``uniform``'s energy to 99 %, and the last picture at which it still stays within ``--share``
-(0.8) of it. A policy meets the energy clause only if it reaches 99 % by that picture.
+and prints, per condition, each one's travel at ``uniform``'s picture to 99 % as a share of
+``uniform``'s energy to 99 %, and the last picture at which the least travel still stays within
+``--share`` (0.8) of it. A policy meets the energy clause only if it reaches 99 % by that
+picture. Where the duty's own travel is above ``--share``, only a team that falls behind its
+shared command (deviations against it, on average) can meet the clause: a deviation drawn with
+mean zero at each step spends on average at least the duty's own travel there (the wheel
+travel is convex in the deviation: Jensen's inequality).
 
 Usage::
 
@@ -23,11 +29,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 import numpy as np
 
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation
+from baselines.excitations.base import Still
 from baselines.excitations.uniform import UniformChoice
 from baselines.runner import EpisodeResult
 from baselines.steps import Step
@@ -65,9 +73,26 @@ def energy_by_picture(result: EpisodeResult) -> dict[int, float]:
     return {picture: float(np.mean(values)) for picture, values in travel.items()}
 
 
-def duty_share(name: str, episodes: int, first: int, share: float) -> tuple[float, float, float]:
-    """``(uniform's mean pictures to 99 %, the least travel's mean share of uniform's energy to
-    99 %, the mean last picture at which the least travel stays within ``share`` of it)``."""
+@dataclass(frozen=True)
+class DutyShare:
+    """What the duty leaves of ``uniform``'s energy on one condition (means over the episodes).
+
+    Attributes:
+        pictures: ``uniform``'s pictures to 99 % (censored).
+        least: the least travel by then, as a share of ``uniform``'s energy to 99 %.
+        last: the last picture at which the least travel stays within the asked share.
+        follow: the duty's own travel (no deviation) by then, as a share of the same.
+    """
+
+    pictures: float
+    least: float
+    last: float
+    follow: float
+
+
+def duty_share(name: str, episodes: int, first: int, share: float) -> DutyShare:
+    """:class:`DutyShare` of condition ``name`` on ``episodes`` seeds from ``first``, with the
+    least travel's last picture within ``share`` of ``uniform``'s energy to 99 %."""
     config, condition, budget = evaluation_conditions(PICTURES)[name]
     seeds = range(first, first + episodes)
     chance = [
@@ -75,7 +100,7 @@ def duty_share(name: str, episodes: int, first: int, share: float) -> tuple[floa
         for r in play(config, condition, budget, UniformChoice, seeds, PICTURES)
     ]
     robot = config.robot
-    duty = play(
+    least = play(
         config,
         condition,
         budget,
@@ -83,12 +108,20 @@ def duty_share(name: str, episodes: int, first: int, share: float) -> tuple[floa
         seeds,
         PICTURES,
     )
-    shares, last = [], []
-    for (picture, spent), alone in zip(chance, duty, strict=True):
+    follow = play(config, condition, budget, Still, seeds, PICTURES)
+    shares, last, own = [], [], []
+    for (picture, spent), alone, plain in zip(chance, least, follow, strict=True):
         travel = energy_by_picture(alone)
         shares.append(travel[min(picture, max(travel))] / spent)
         last.append(max((p for p, e in travel.items() if e <= share * spent), default=0))
-    return float(np.mean([c[0] for c in chance])), float(np.mean(shares)), float(np.mean(last))
+        duty = energy_by_picture(plain)
+        own.append(duty[min(picture, max(duty))] / spent)
+    return DutyShare(
+        float(np.mean([c[0] for c in chance])),
+        float(np.mean(shares)),
+        float(np.mean(last)),
+        float(np.mean(own)),
+    )
 
 
 def main() -> None:
@@ -99,11 +132,12 @@ def main() -> None:
     parser.add_argument("--share", type=float, default=0.8)
     args = parser.parse_args()
     for name in args.conditions:
-        pictures, share, last = duty_share(name, args.episodes, args.first_seed, args.share)
+        found = duty_share(name, args.episodes, args.first_seed, args.share)
         print(
-            f"{name}: uniform {pictures:.2f} pictures to 99 %; the least travel on duty is "
-            f"{share:.3f} of its energy by then and stays within {args.share} of it until "
-            f"picture {last:.2f} on average ({last / pictures:.2f}x uniform's pictures)",
+            f"{name}: uniform {found.pictures:.2f} pictures to 99 %; by then the duty's own "
+            f"travel is {found.follow:.3f} of its energy and the least travel on duty "
+            f"{found.least:.3f}, which stays within {args.share} of it until picture "
+            f"{found.last:.2f} on average ({found.last / found.pictures:.2f}x uniform's pictures)",
             flush=True,
         )
 

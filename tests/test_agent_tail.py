@@ -68,3 +68,50 @@ def test_a_delay_below_one_picture_is_refused_before_any_episode() -> None:
     pytest.importorskip("stable_baselines3")
     with pytest.raises(ValueError, match="after must be an integer >= 1"):
         variant("agent-delay-0")
+
+
+class _Constant:
+    """An inner excitation that always asks for ``v = 0.3``, ``w = -0.5``."""
+
+    def __init__(self) -> None:
+        self.n = 0
+
+    def reset(self, rngs: list[np.random.Generator]) -> None:
+        self.n = len(rngs)
+
+    def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
+        pass
+
+    def commands(self, step: object, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.full(self.n, 0.3), np.full(self.n, -0.5)
+
+
+def test_still_on_duty_opposes_the_shared_command_only_for_resting_robots() -> None:
+    """On duty a resting robot's deviation is ``-shared / budget`` clipped to the box; a moving
+    robot keeps its own; in free motion (no ``follow``) a resting robot holds still."""
+    from benchmarks.agent_tail import StillOnDuty
+
+    still = StillOnDuty(_Constant(), 0.9999, speed=0.5, turn=1.0)  # type: ignore[arg-type]  # a duck-typed inner
+    still.reset([np.random.default_rng(k) for k in range(3)])
+    still.resting = np.array([True, True, False])
+    v, w = still.commands(None, 0.05)  # type: ignore[arg-type]  # reads nothing of the step
+    assert np.array_equal(v, [0.0, 0.0, 0.3])
+    assert np.array_equal(w, [0.0, 0.0, -0.5])
+    still.follow(np.array([0.06, 0.4, 0.4]), np.array([-0.1, 0.5, 0.5]), 0.2)
+    v, w = still.commands(None, 0.05)  # type: ignore[arg-type]  # reads nothing of the step
+    np.testing.assert_allclose(v, [-0.3, -0.5, 0.3])
+    np.testing.assert_allclose(w, [0.5, -1.0, -0.5])
+
+
+def test_origins_bin_the_robots_not_right_by_their_belief_before() -> None:
+    """Each robot not right at picture 4 counts once, in the bin of its belief in its own row
+    at picture 3 (a robot with no record there in the lowest); right robots are not counted."""
+    from benchmarks.agent_tail import origins
+
+    def rec(robot: int, picture: int, correct: bool, belief: float) -> PictureRecord:
+        return PictureRecord("", robot, picture, float(picture), -1, robot, correct, belief, 0.0)
+
+    before = [rec(i, 3, i > 1, b) for i, b in enumerate((0.3, 0.9, 0.995, 0.99995, 0.2, 0.6))]
+    after = [rec(i, 4, i == 5, 0.5) for i in (0, 1, 2, 3, 5)] + [rec(6, 4, False, 0.5)]
+    result = EpisodeResult(seed=0, n_robots=7, records=before + after)
+    assert origins(result, 4).tolist() == [2, 1, 1, 1]
