@@ -41,3 +41,24 @@ def test_belief_at_refuses_what_it_cannot_read() -> None:
         ident.belief_at(np.zeros(3))
     with pytest.raises(ValueError, match=r"\[-1, 3\)"):
         ident.belief_at(np.array([0, 1, 3]))
+
+
+def test_the_belief_table_is_the_shares_plus_the_uniform_weight_times_the_rows() -> None:
+    """Where every row weighs one, the table adds each robot's uniform weight to its row of
+    shares without building the ``(R, n)`` product: the same bits as with it."""
+    robots = 7
+    model = _model(p_detect=0.9, n_robots=robots, false_positives=1.0)
+    rows, intervals, _ = simulate(model, robots, 4, 1.0, 3, leg=0.3, margin=0.0)
+    ident = Identifier(model, robots)
+    checked = 0
+    for k, picture in enumerate(rows):
+        ident.update(picture, intervals[k - 1] if k else None)
+        assert ident.row_bias is None
+        slot, row, share, uniform, spread = ident._shares
+        n_rows = len(spread)
+        want = np.bincount(slot * n_rows + row, weights=share, minlength=robots * n_rows)
+        want = want.reshape(robots, n_rows).astype(np.float64)
+        want += uniform[:, None] * spread[None, :]
+        checked += bool(uniform.any())
+        assert ident.belief().tobytes() == want.tobytes()
+    assert checked

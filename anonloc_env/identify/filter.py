@@ -80,6 +80,7 @@ class Identifier:
         self.row_bias: np.ndarray | None = None
         self._belief: np.ndarray | None = None
         self._shares: tuple[np.ndarray, ...] | None = None
+        self._flat_spread = True
         self._missing: np.ndarray | None = None
         self.pictures = 0
         self._pushed_run = np.zeros(self.n, np.int64)  # intervals in a row each robot was pushed
@@ -384,6 +385,7 @@ class Identifier:
         )
         # Each weight divided by its robot's total before any table is filled.
         self._shares = (slot, row, seen_w / total[slot], uniform / total, spread)
+        self._flat_spread = self.row_bias is None  # every row of ``spread`` is one
         self._belief = None
         self._missing = missing / total
 
@@ -408,7 +410,10 @@ class Identifier:
             ).reshape(self.n, n_rows)
             belief = belief.astype(np.float64, copy=False)  # bincount of nothing is int64
             if uniform.any():
-                belief += uniform[:, None] * spread[None, :]
+                if self._flat_spread:  # times one: the same sums, no (R, n) product built
+                    belief += uniform[:, None]
+                else:
+                    belief += uniform[:, None] * spread[None, :]
             self._belief = belief
         return self._belief
 
