@@ -173,7 +173,9 @@ class Decisions:
 
     def reset(self) -> None:
         """Forget every decision (a new episode)."""
-        self._tracks: Tracks | None = None  # each decided robot's track at its decided row
+        # The identifier's tracks at the previous picture, the robots decided there and their
+        # rows: each one's decided track is taken from them only when it is asked (``_held``).
+        self._decided: tuple[Tracks, np.ndarray, np.ndarray] | None = None
         self._estimate: np.ndarray | None = None
         self._rolled: np.ndarray | None = None  # path (m) each decided robot rolled since deciding
         self._untouched: np.ndarray | None = None  # intervals since each robot was last pushed
@@ -185,7 +187,7 @@ class Decisions:
         n = belief.shape[0]
         untouched = self._untouched_now(identifier, n)
         if belief.shape[1] == 0:
-            self._tracks, self._estimate = None, None
+            self._decided, self._estimate = None, None
             return np.full(n, -1, dtype=np.int64)
         best = belief.argmax(axis=1)
         top = belief[np.arange(n), best]
@@ -210,7 +212,7 @@ class Decisions:
                 high &= untouched < touched
             decided |= self._held(identifier, best, high, decided | ~moved)
             robots = np.flatnonzero(decided)
-            self._tracks = decided_tracks(identifier.tracks, robots, best[robots])
+            self._decided = (identifier.tracks, robots, best[robots])
         self._estimate = np.where(decided, best, -1)
         self._rolled = np.where(decided, rolled, 0.0)
         return self._estimate
@@ -244,14 +246,21 @@ class Decisions:
         module): of those not ``sure``, the ones whose top belief is ``high`` enough (at least
         their keep) and whose top row continues their decided track."""
         hold = np.zeros(len(best), bool)
-        before, interval, rows = self._tracks, identifier.interval, identifier.rows
-        if before is None or not len(before) or interval is None or rows is None:
+        decided, interval, rows = self._decided, identifier.interval, identifier.rows
+        if decided is None or interval is None or rows is None:
             return hold
-        asked = np.flatnonzero(~sure[before.slot] & high[before.slot])
+        tracks, robots, at = decided
+        wanted = ~sure[robots] & high[robots]
+        if not wanted.any():
+            return hold
+        # The decided tracks of the robots asked only (the identifier replaces its tracks at
+        # every update and never writes into them, so those of the previous picture still
+        # hold; the same tracks, in the same order, as taking them all and then the asked).
+        asked = decided_tracks(tracks, robots[wanted], at[wanted])
         if not len(asked):
             return hold
         scoring = identifier.scoring
-        robots, row = continuations(before.take(asked), rows, interval, identifier.pix_var, scoring)
+        robots, row = continuations(asked, rows, interval, identifier.pix_var, scoring)
         hold[robots] = row == best[robots]
         self.held += int(hold.sum())
         return hold
