@@ -59,6 +59,7 @@ from benchmarks.agent_conditions import (
     crowded_conditions,
     evaluation_conditions,
 )
+from benchmarks.duty_energy import LeastTravel
 
 #: The bundled agent's rest (its spec's ``rest``), and ``uniform-rest``'s here.
 REST = 0.9999
@@ -99,35 +100,32 @@ class Delayed(RestWhenSure):
 
 class StillOnDuty(RestWhenSure):
     """:class:`~baselines.excitations.rest.RestWhenSure` whose resting robots, on swarm duty,
-    deviate against the shared command as far as the candidates' box allows (``v`` within
-    ``speed``, m/s, ``w`` within ``turn``, rad/s) instead of adding no deviation: they stand as
-    still as the duty allows, and fall behind it (``benchmarks.duty_energy.LeastTravel``'s
-    deviation, for the sure robots only). In free motion it is the rest itself."""
+    drive :class:`benchmarks.duty_energy.LeastTravel`'s deviation within the candidates' box
+    (``v`` within ``speed``, m/s, ``w`` within ``turn``, rad/s) instead of adding no deviation:
+    they stand as still as the duty allows, and fall behind it. In free motion it is the rest
+    itself."""
 
     def __init__(self, inner: Excitation, sure: float, speed: float, turn: float) -> None:
         super().__init__(inner, sure)
-        self.box = (float(speed), float(turn))
-        self.shared: tuple[np.ndarray, np.ndarray, float] | None = None
+        self.least = LeastTravel(speed, turn)
+        self.following = False
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
-        self.shared = None
+        self.least.reset(rngs)
+        self.following = False
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         super().follow(v, w, budget)
-        self.shared = (np.asarray(v, np.float64), np.asarray(w, np.float64), float(budget))
+        self.least.follow(v, w, budget)
+        self.following = budget != 0.0
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v, w = super().commands(step, dt)
-        if self.shared is None or self.shared[2] == 0.0:
+        if not self.following:
             return v, w
-        v_shared, w_shared, budget = self.shared
-        speed, turn = self.box
-        still = self.resting
-        return (
-            np.where(still, np.clip(-v_shared / budget, -speed, speed), v),
-            np.where(still, np.clip(-w_shared / budget, -turn, turn), w),
-        )
+        still_v, still_w = self.least.commands(step, dt)
+        return np.where(self.resting, still_v, v), np.where(self.resting, still_w, w)
 
 
 def edited_agent(edit: Callable[[str, float], float]) -> Any:
