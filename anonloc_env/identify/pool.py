@@ -1,15 +1,20 @@
 """The identifier's large arrays, kept from picture to picture: blocks of memory it reuses once
 nothing else holds them, so that a step writes into pages it has written before.
 
-At N = 1000 a picture writes some 40 MB of fresh arrays (the first leg's tracks, the gathered
-tracks, the belief table). Fresh memory costs a page fault per 4 KiB at its first write (tens of
-ms in a process's first episode, before the C library's allocator keeps freed memory for
-reuse). A :class:`Pool` keeps a few blocks alive and hands one out again only when no array
-still refers to it (its reference count is the pool's own): a caller that keeps an array the
-identifier gave it (the belief table of the previous picture, the tracks a decision holds) keeps
-that block out of the pool, so reuse never writes into an array someone can still read.
-:meth:`Pool.reserve` writes the blocks a process's first pictures will need before they are
-needed (the identifier's first picture, which has nothing to update yet).
+At N = 1000 a picture writes some 60 MB of arrays (the first leg's tracks, the gathered tracks,
+the belief table, the per-track temporaries). Fresh memory costs a page fault per 4 KiB at its
+first write: in a process's first episode, before glibc's allocator has learned to keep freed
+memory for reuse, the second picture faulted in 3,800 pages (15 to 60 ms of a 40 ms step on
+the shared machine). :func:`anonloc_env.memory.keep_freed_memory` would change the whole
+process, which only the learning path does; a :class:`Pool` belongs to one identifier.
+
+It keeps up to :data:`MOST_BLOCKS` blocks alive (about 80 MB at N = 1000, less the fewer the robots)
+and hands one out again only when no array still refers to it (its reference count is the
+pool's own): a caller that keeps an array the identifier gave it (the belief table of the
+previous picture, the tracks a decision holds) keeps that block out of the pool, so reuse never
+writes into an array someone can still read. :meth:`Pool.reserve` writes the blocks the first
+pictures will need before they are needed (at the identifier's first picture, which has nothing
+to update yet).
 """
 
 from __future__ import annotations
@@ -22,13 +27,14 @@ import numpy.typing as npt
 
 from anonloc_env.identify.arrays import lay_out
 
-#: Blocks smaller than this are left to numpy's allocator (they cost few faults).
-MIN_BYTES = 1 << 20
+#: Blocks smaller than this are left to numpy's allocator: glibc's heap serves them (128 KiB is
+#: its starting ``M_MMAP_THRESHOLD``, from which it maps fresh memory).
+MIN_BYTES = 1 << 17
 #: A new block holds this much more than asked, so that a need growing slowly from picture to
 #: picture is met by the same block.
 HEADROOM = 1.25
 #: Most blocks a pool keeps (the identifier holds about a dozen at once at N = 1000).
-MOST_BLOCKS = 16
+MOST_BLOCKS = 24
 
 
 def _refs(blocks: list[np.ndarray], k: int) -> int:
@@ -133,13 +139,17 @@ class Pool:
 
 def first_picture_blocks(table: int) -> list[int]:
     """What :meth:`Pool.reserve` is asked for at an identifier's first picture, its belief table
-    ``table`` bytes (``R n`` float64): the blocks the next two pictures take at N = 1000 (the
-    first leg's candidates about three tables, the gathered tracks two, the belief tables of
-    this picture and the next, the anchored tracks' candidates one and a half, and four
-    per-track arrays a quarter each), about nine tables in all, written before they are needed
-    (``benchmarks/bench_identify.py``: the first episode's second and third pictures wrote
-    7,400 and 2,100 fresh pages without)."""
-    return [3 * table, 2 * table, table, table, table, table // 2] + [table // 4] * 4
+    ``table`` bytes (``R n`` float64): the blocks the next two pictures take at N = 1000 with
+    the default camera (the first leg's candidates, about three tables; the gathered tracks,
+    two; the belief tables of this picture and the next; the anchored tracks' candidates, one
+    and a half; ten per-track arrays of a quarter or an eighth), about ten tables in all,
+    written before they are needed (``benchmarks/bench_identify.py``'s first episode: see
+    ``docs/benchmarks.md``, issue 25's fourteenth round)."""
+    return (
+        [3 * table, 2 * table, table, table, table, table // 2]
+        + [table // 4] * 4
+        + [table // 8] * 6
+    )
 
 
 def empty(
