@@ -6,13 +6,13 @@ the belief table, the per-track temporaries). Fresh memory costs a page fault pe
 first write: in a process's first episode, before glibc's allocator has learned to keep freed
 memory for reuse, the second picture faulted in 3,800 pages (15 to 60 ms of a 40 ms step on
 the shared machine). :func:`anonloc_env.memory.keep_freed_memory` would change the whole
-process, which only the learning path does; a :class:`Pool` belongs to one identifier.
+process, which only the learning path does; a pool belongs to one identifier.
 
-It keeps up to :data:`MOST_BLOCKS` blocks alive (about 80 MB at N = 1000, less the fewer the robots)
-and hands one out again only when no array still refers to it (its reference count is the
-pool's own): a caller that keeps an array the identifier gave it (the belief table of the
-previous picture, the tracks a decision holds) keeps that block out of the pool, so reuse never
-writes into an array someone can still read. :meth:`Pool.reserve` writes the blocks the first
+A :class:`Pool` keeps up to :data:`MOST_BLOCKS` blocks alive (about 80 MB at N = 1000, less the
+fewer the robots) and hands one out again only when no array still refers to it (its reference
+count is the pool's own): a caller that keeps an array the identifier gave it (the belief table
+of the previous picture, the tracks a decision holds) keeps that block out of the pool, so reuse
+never writes into an array someone can still read. Its ``reserve`` writes the blocks the first
 pictures will need before they are needed (at the identifier's first picture, which has nothing
 to update yet).
 """
@@ -38,7 +38,7 @@ MOST_BLOCKS = 24
 
 
 def _refs(blocks: list[np.ndarray], k: int) -> int:
-    """The reference count of ``blocks[k]`` as :meth:`Pool.take` reads it."""
+    """The reference count of ``blocks[k]`` as ``Pool.take`` reads it."""
     return sys.getrefcount(blocks[k])
 
 
@@ -138,7 +138,7 @@ class Pool:
 
 
 def first_picture_blocks(table: int) -> list[int]:
-    """What :meth:`Pool.reserve` is asked for at an identifier's first picture, its belief table
+    """What ``Pool.reserve`` is asked for at an identifier's first picture, its belief table
     ``table`` bytes (``R n`` float64): the blocks the next two pictures take at N = 1000 with
     the default camera (the first leg's candidates, about three tables; the gathered tracks,
     two; the belief tables of this picture and the next; the anchored tracks' candidates, one
