@@ -199,12 +199,16 @@ class Decisions:
         self.reset()
 
     @classmethod
-    def crowd(cls, threshold: float = 0.99) -> Decisions:
+    def crowd(
+        cls,
+        threshold: float = 0.99,
+        pinned: tuple[int, int, float, float] | None = CROWD_PINNED,
+    ) -> Decisions:
         """``bayes``'s default: the hold (``CROWD_KEEP``, ``CROWD_PRESSED_KEEP`` for pressed
         robots) with the release (``CROWD_RELEASE``) and the pinned robots' guard
-        (``CROWD_PINNED``) in a crowd, the same for robots touched in
-        the newest ``CONTACT_WINDOW`` intervals in open space with the contact model, the plain
-        threshold elsewhere (see the module)."""
+        (``pinned``, ``CROWD_PINNED``; None: the thirteenth round's decisions) in a crowd, the
+        same hold for robots touched in the newest ``CONTACT_WINDOW`` intervals in open space
+        with the contact model, the plain threshold elsewhere (see the module)."""
         return cls(
             threshold,
             CROWD_KEEP,
@@ -213,7 +217,7 @@ class Decisions:
             True,
             pressed_keep=CROWD_PRESSED_KEEP,
             open_touched=CONTACT_WINDOW,
-            pinned=CROWD_PINNED,
+            pinned=pinned,
         )
 
     @property

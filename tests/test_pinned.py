@@ -10,15 +10,7 @@ import numpy as np
 import pytest
 
 from anonloc_env.identify import Identifier, SensorModel
-from baselines.decisions import (
-    CONTACT_WINDOW,
-    CROWD_KEEP,
-    CROWD_PINNED,
-    CROWD_PRESSED_KEEP,
-    CROWD_RELEASE,
-    Decisions,
-    in_crowd,
-)
+from baselines.decisions import CROWD_PINNED, Decisions, in_crowd
 from benchmarks.crowds import load_recorded
 from tests.helpers import lost_decisions, wrong_decisions
 
@@ -31,15 +23,7 @@ PINNED = Path(__file__).parent / "data" / "crowd_pinned.npz"
 
 def _thirteenth() -> Decisions:
     """``Decisions.crowd`` as it was before the pinned robots' guard."""
-    return Decisions(
-        0.99,
-        CROWD_KEEP,
-        None,
-        CROWD_RELEASE,
-        True,
-        pressed_keep=CROWD_PRESSED_KEEP,
-        open_touched=CONTACT_WINDOW,
-    )
+    return Decisions.crowd(pinned=None)
 
 
 def _played(rules: dict[str, Decisions]) -> tuple[dict[str, list[np.ndarray]], list, list, list]:
