@@ -23,7 +23,7 @@ from anonloc_env.identify.likelihood import Pairs, Scoring
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_background
 from anonloc_env.identify.others import Links, links_between
 from anonloc_env.identify.out_of_view import OutOfView, claimed_elsewhere
-from anonloc_env.identify.pool import Pool, empty, first_picture_blocks
+from anonloc_env.identify.pool import Pool, empty, first_picture_blocks, taken
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import pairs_within
 from anonloc_env.odometry import Interval
@@ -340,12 +340,12 @@ class Identifier:
         # Normalise each robot's weights to sum to one (``best[tracks.slot]`` and the like
         # taken into blocks of the pool: the same numbers as the expressions they spell out).
         sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
-        shifted = _at_slots(best, tracks.slot, pool)
+        shifted = taken(best, tracks.slot, pool)
         np.subtract(tracks.logw, shifted, out=shifted)
         sums += np.bincount(tracks.slot, weights=np.exp(shifted, out=shifted), minlength=self.n)
         del shifted
         total = best + np.log(sums)
-        logw = _at_slots(total, tracks.slot, pool)
+        logw = taken(total, tracks.slot, pool)
         tracks.logw = np.subtract(tracks.logw, logw, out=logw)  # tracks.logw - total[slot]
         self.uniform = self.uniform - total
         self.unanchored = self.unanchored - total
@@ -403,7 +403,7 @@ class Identifier:
             np.bincount(slot, weights=seen_w, minlength=self.n) + spread.sum() * uniform + missing
         )
         # Each weight divided by its robot's total before any table is filled.
-        share = _at_slots(total, slot, pool)
+        share = taken(total, slot, pool)
         share = np.divide(seen_w, share, out=share)  # seen_w / total[slot]
         self._shares = (slot, row, share, uniform / total, spread)
         self._flat_spread = self.row_bias is None  # every row of ``spread`` is one
@@ -480,9 +480,3 @@ class Identifier:
         if self._missing is None:
             raise RuntimeError("no picture yet: call update() first")
         return self._missing
-
-
-def _at_slots(values: np.ndarray, slot: np.ndarray, pool: Pool | None) -> np.ndarray:
-    """``values[slot]`` (``values`` ``(R,)`` float64, ``slot`` valid indices), in a block of
-    ``pool`` where given."""
-    return np.take(values, slot, out=empty(pool, len(slot)), mode="clip")  # clip: not buffered

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import numpy.typing as npt
 
 from anonloc_env import compiled
 from anonloc_env.identify import fused
@@ -22,6 +21,7 @@ from anonloc_env.identify.arrays import (
     group_starts,
     is_shared,
     near_best,
+    positions,
     take_field,
 )
 from anonloc_env.identify.contact import PressedInterval, mix_pushes, tail_candidates, tails
@@ -39,7 +39,7 @@ from anonloc_env.identify.likelihood import (
 )
 from anonloc_env.identify.model import LOG_2PI, SensorModel, push_covariance
 from anonloc_env.identify.others import Links
-from anonloc_env.identify.pool import Pool, empty
+from anonloc_env.identify.pool import Pool, empty, taken
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.odometry import Interval
 
@@ -219,7 +219,7 @@ def known_compiled(
         empty(pool, (2, total), np.int64),
         empty(pool, (4, total)),
     )
-    places = _taken(cand, index[1], pool, np.int64)  # cand[index[1]]
+    places = taken(cand, index[1], pool)  # cand[index[1]]
     return _finish_compiled(sub, index[0], places, pairs, links, scoring, out, pool)
 
 
@@ -244,7 +244,7 @@ def _finish_compiled(
     rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
     model = scoring.model
     count = len(parent)
-    slot = _taken(sub.slot, parent, pool, np.int64)  # sub.slot[parent]
+    slot = taken(sub.slot, parent, pool)  # sub.slot[parent]
     child = Child(
         loglik=_loglik(out, pool),
         theta=out[2],
@@ -273,12 +273,12 @@ def _finish_compiled(
     theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
     keep, logw = fused.finish_known(
         slot,  # int64, contiguous, fresh
-        _taken(rows[:, 2], cand, pool),  # rows[cand, 2]
+        taken(rows[:, 2], cand, pool),  # rows[cand, 2]
         child.loglik,
         theta,
         p_tt,
         log_var,
-        _taken(sub.logw, parent, pool),  # sub.logw[parent]
+        taken(sub.logw, parent, pool),  # sub.logw[parent]
         bg,
         np.array([scoring.theta_var, math.log(2 * math.pi), scoring.log_pd, PRUNE_NATS]),
         bool(model.orientation),
@@ -287,19 +287,19 @@ def _finish_compiled(
     )
     del log_var
     kept = len(keep)
-    c = _taken(cand, keep, pool, np.int64)  # cand[keep]
-    theta = _taken(theta, keep, pool)  # wrap_angle(theta[keep]), in place
+    c = taken(cand, keep, pool)  # cand[keep]
+    theta = taken(theta, keep, pool)  # wrap_angle(theta[keep]), in place
     np.add(theta, math.pi, out=theta)
     np.mod(theta, 2.0 * math.pi, out=theta)
     np.subtract(theta, math.pi, out=theta)
     tracks = Tracks.fresh(
-        _taken(slot, keep, pool, np.int64),  # slot[keep]
+        taken(slot, keep, pool),  # slot[keep]
         c,
-        np.take(rows[:, :2], c, axis=0, out=empty(pool, (kept, 2)), mode="clip"),  # positions
-        _taken(logw, keep, pool),  # logw[keep]
+        _positions(rows, c, pool),
+        taken(logw, keep, pool),  # logw[keep]
         pos_var=pix_var,
         theta=theta,
-        p_tt=_taken(p_tt, keep, pool),  # p_tt[keep]
+        p_tt=taken(p_tt, keep, pool),  # p_tt[keep]
         log_s=take_field(child.log_s, keep, kept),
         p_ts=take_field(child.p_ts, keep, kept),
         p_ss=take_field(child.p_ss, keep, kept),
@@ -309,12 +309,12 @@ def _finish_compiled(
     return tracks
 
 
-def _taken(
-    values: np.ndarray, index: np.ndarray, pool: Pool | None, dtype: npt.DTypeLike = np.float64
-) -> np.ndarray:
-    """``values[index]`` (``values`` 1-D of ``dtype``, ``index`` valid), in a block of ``pool``
-    where given."""
-    return np.take(values, index, out=empty(pool, len(index), dtype), mode="clip")
+def _positions(rows: np.ndarray, index: np.ndarray, pool: Pool | None) -> np.ndarray:
+    """``positions(rows, index)``, in a block of ``pool`` where given and large enough."""
+    out = empty(pool, (len(index), 2))
+    if out.base is None:  # a fresh array: numpy's own take
+        return positions(rows, index)
+    return rows[:, :2].take(index, axis=0, out=out, mode="clip")
 
 
 def _loglik(out: np.ndarray, pool: Pool | None) -> np.ndarray:

@@ -19,6 +19,7 @@ to update yet).
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Sequence
 
@@ -133,8 +134,12 @@ class Pool:
         they were."""
         shape = (shape,) if isinstance(shape, int) else shape
         kind = np.dtype(dtype)
-        count = int(np.prod(shape, dtype=np.int64))
-        return self.take(count * kind.itemsize).view(kind).reshape(shape)
+        nbytes = kind.itemsize
+        for size in shape:  # not np.prod: this is asked for small arrays at every picture
+            nbytes *= size
+        if nbytes < MIN_BYTES:
+            return np.empty(shape, kind)
+        return self.take(nbytes).view(kind).reshape(shape)
 
 
 def first_picture_blocks(table: int) -> list[int]:
@@ -155,5 +160,26 @@ def first_picture_blocks(table: int) -> list[int]:
 def empty(
     pool: Pool | None, shape: int | tuple[int, ...], dtype: npt.DTypeLike = np.float64
 ) -> np.ndarray:
-    """``np.empty(shape, dtype)``, in a block of ``pool`` where given."""
-    return np.empty(shape, dtype) if pool is None else pool.array(shape, dtype)
+    """``np.empty(shape, dtype)``, in a block of ``pool`` where given and the array is at least
+    :data:`MIN_BYTES` (checked first: small arrays, asked for at every picture, cost what
+    ``np.empty`` costs)."""
+    if pool is None:
+        return np.empty(shape, dtype)
+    size = _ITEMSIZE.get(dtype) or np.dtype(dtype).itemsize
+    nbytes = size * (shape if isinstance(shape, int) else math.prod(shape))
+    if nbytes < MIN_BYTES:
+        return np.empty(shape, dtype)
+    return pool.array(shape, dtype)
+
+
+def taken(values: np.ndarray, index: np.ndarray, pool: Pool | None) -> np.ndarray:
+    """``values[index]`` (``values`` 1-D, ``index`` valid indices), in a block of ``pool`` where
+    given and the array is at least :data:`MIN_BYTES`."""
+    if pool is None or len(index) * values.itemsize < MIN_BYTES:
+        return values[index]
+    return values.take(index, out=pool.array(len(index), values.dtype), mode="clip")  # clip:
+    # not buffered
+
+
+#: Item sizes of the dtypes the identifier asks for (``np.dtype`` costs more than the lookup).
+_ITEMSIZE: dict[npt.DTypeLike, int] = {np.float64: 8, np.int64: 8}
