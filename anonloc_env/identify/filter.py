@@ -68,6 +68,7 @@ class Identifier:
         )
         # The large arrays' memory, kept from picture to picture and from episode to episode.
         self.pool = Pool()
+        self._reserved = False  # the pool's first blocks reserved (once per identifier)
         self.reset()
 
     def reset(self) -> None:
@@ -167,8 +168,9 @@ class Identifier:
         self.rows = rows
         self.row_bias = bias
         self.pictures += 1
-        if not len(self.pool) and n_rows and self._pooled() is not None:
+        if not self._reserved and n_rows and self._pooled() is not None:
             self.pool.reserve(first_picture_blocks(self.n * n_rows * 8))
+            self._reserved = True
         self._normalise_and_prune(parts)
         if view is not None and self.model.pooled_motion:  # rows another robot is sure of
             self.tracks, self.uniform, self.unanchored = claimed_elsewhere(
