@@ -37,11 +37,23 @@ neither is the default):
   contact: of the 67 right robots ``random`` lost between two pictures at one robot per m^2,
   N = 30, on 12 seeds, 56 were pushed in the newest interval, all with their own row on top).
 
-``Decisions.crowd`` is ``bayes``'s default: the hold with the release and the pressed keep for
-every robot in a crowd (see ``in_crowd``: above one robot per m^2, clean pictures, a fixed
-camera, where it was measured); in open space where the identifier models contacts (clean
-pictures, a fixed camera: ``in_contact``) the same hold for robots touched in the newest
-``CONTACT_WINDOW`` intervals only; elsewhere (misses or false positives, a moving camera) the
+* **pinned** (with ``(window, pushes, path, threshold)``): a robot pushed in most of the newest
+  intervals that hardly rolled in them (pressed against a wall or its neighbours) takes a new
+  decision only at a higher ``threshold`` (issue 23, fourteenth round: at 4 robots per m^2,
+  N = 30, ``random``'s robots pressed against the arena's wall took the row of a far robot that
+  hardly moved either, at beliefs 0.990 to 0.9989, and kept it for up to 16 pictures; on 96
+  tuning episodes of ``random`` at 4 per m^2 every confident wrong top belief (13
+  robot-pictures) was below 0.999, 11 of them of a robot pushed in at least 4 of its newest 5
+  intervals. Only ``random`` hardly rolls while pressed; ``greedy``, ``distinct`` and ``gaps``
+  decided as before on the tuning episodes. A pinned robot's
+  pictures say where it is, not which of the still robots it is: the motion that tells robots
+  apart is what the wall and the neighbours take away.)
+
+``Decisions.crowd`` is ``bayes``'s default: the hold with the release, the pressed keep and the
+pinned robots' guard for every robot in a crowd (see ``in_crowd``: above one robot per m^2, clean
+pictures, a fixed camera, where it was measured); in open space where the identifier models
+contacts (clean pictures, a fixed camera: ``in_contact``) the same hold for robots touched in the
+newest ``CONTACT_WINDOW`` intervals only; elsewhere (misses or false positives, a moving camera) the
 plain threshold, bit for bit (``docs/crowds.md``).
 """
 
@@ -64,6 +76,33 @@ CROWD_PRESSED_KEEP = 0.8
 #: ``bayes``'s hold in open space: only robots pushed in one of this many newest intervals (the
 #: newest and the one before, the contact model's window for a pressed robot) are held.
 CONTACT_WINDOW = 2
+#: ``bayes``'s guard in a crowd on new decisions of pinned robots: ``(window, pushes, path,
+#: threshold)``, a robot pushed in at least 4 of the newest 5 intervals that rolled less than
+#: 0.15 m over them decides at 0.999 rather than the threshold (issue 23, fourteenth round).
+CROWD_PINNED = (5, 4, 0.15, 0.999)
+
+
+def check_pinned(pinned: object) -> None:
+    """Refuse a ``pinned`` setting that is not ``(window, pushes, path, threshold)``: ints with
+    ``1 <= pushes <= window`` (intervals), a path > 0 m and a threshold in (0.5, 1]."""
+    ok = isinstance(pinned, tuple) and len(pinned) == 4
+    if ok:
+        assert isinstance(pinned, tuple)
+        window, pushes, path, threshold = (pinned[0], pinned[1], pinned[2], pinned[3])
+        ok = (
+            isinstance(window, int)
+            and isinstance(pushes, int)
+            and 1 <= pushes <= window
+            and isinstance(path, int | float)
+            and path > 0.0
+            and isinstance(threshold, int | float)
+            and 0.5 < threshold <= 1.0
+        )
+    if not ok:
+        raise ValueError(
+            "pinned must be (window, pushes, path, threshold): ints with 1 <= pushes <= window "
+            f"(intervals), a path > 0 m and a threshold in (0.5, 1], got {pinned!r}"
+        )
 
 
 def in_crowd(model: SensorModel) -> bool:
@@ -102,6 +141,11 @@ class Decisions:
         open_touched: with ``only_in_crowd``, where not ``in_crowd`` but ``in_contact``, hold
             the robots pushed in one of the newest ``open_touched`` intervals (>= 1) as
             ``touched`` would; None (the default): the plain threshold there.
+        pinned: ``(window, pushes, path, threshold)``: a robot undecided at the previous picture
+            that was pushed in at least ``pushes`` of the newest ``window`` intervals and rolled
+            less than ``path`` (m) over them decides only at ``threshold`` (in (0.5, 1]; 1: not
+            at all while so); None (the default): no such guard. With ``only_in_crowd``, in a
+            crowd only.
     """
 
     def __init__(
@@ -114,6 +158,7 @@ class Decisions:
         pressed_keep: float | None = None,
         touched: int | None = None,
         open_touched: int | None = None,
+        pinned: tuple[int, int, float, float] | None = None,
     ) -> None:
         if not 0.5 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0.5, 1), got {threshold}")
@@ -138,6 +183,8 @@ class Decisions:
                     f"{name} must be an int >= 1 (intervals) and come with keep < threshold, "
                     f"got {window!r}"
                 )
+        if pinned is not None:
+            check_pinned(pinned)
         if open_touched is not None and not only_in_crowd:
             raise ValueError("open_touched needs only_in_crowd (it says how to hold outside one)")
         self.threshold = threshold
@@ -148,14 +195,20 @@ class Decisions:
         self.pressed_keep = pressed_keep
         self.touched = touched
         self.open_touched = open_touched
+        self.pinned = pinned
         self.reset()
 
     @classmethod
-    def crowd(cls, threshold: float = 0.99) -> Decisions:
+    def crowd(
+        cls,
+        threshold: float = 0.99,
+        pinned: tuple[int, int, float, float] | None = CROWD_PINNED,
+    ) -> Decisions:
         """``bayes``'s default: the hold (``CROWD_KEEP``, ``CROWD_PRESSED_KEEP`` for pressed
-        robots) with the release (``CROWD_RELEASE``) in a crowd, the same for robots touched in
-        the newest ``CONTACT_WINDOW`` intervals in open space with the contact model, the plain
-        threshold elsewhere (see the module)."""
+        robots) with the release (``CROWD_RELEASE``) and the pinned robots' guard
+        (``pinned``, ``CROWD_PINNED``; None: the thirteenth round's decisions) in a crowd, the
+        same hold for robots touched in the newest ``CONTACT_WINDOW`` intervals in open space
+        with the contact model, the plain threshold elsewhere (see the module)."""
         return cls(
             threshold,
             CROWD_KEEP,
@@ -164,12 +217,14 @@ class Decisions:
             True,
             pressed_keep=CROWD_PRESSED_KEEP,
             open_touched=CONTACT_WINDOW,
+            pinned=pinned,
         )
 
     @property
     def plain(self) -> bool:
-        """Whether these are ``bayes``'s plain decisions (no hold, no settle)."""
-        return self.keep >= self.threshold and self.settle is None
+        """Whether these are ``bayes``'s plain decisions (no hold, no settle, no pinned
+        guard)."""
+        return self.keep >= self.threshold and self.settle is None and self.pinned is None
 
     def reset(self) -> None:
         """Forget every decision (a new episode)."""
@@ -179,6 +234,8 @@ class Decisions:
         self._estimate: np.ndarray | None = None
         self._rolled: np.ndarray | None = None  # path (m) each decided robot rolled since deciding
         self._untouched: np.ndarray | None = None  # intervals since each robot was last pushed
+        # The newest intervals' (pushed, path) per robot, newest last (for ``pinned``).
+        self._recent: tuple[np.ndarray, np.ndarray] | None = None
         self.held = 0  # decisions held below the threshold so far (a count for the benchmarks)
 
     def decide(self, identifier: Identifier, belief: np.ndarray) -> np.ndarray:
@@ -186,6 +243,8 @@ class Decisions:
         ``belief`` (``identifier.belief()``), or -1 while undecided."""
         n = belief.shape[0]
         untouched = self._untouched_now(identifier, n)
+        crowd = not self.only_in_crowd or in_crowd(identifier.model)
+        pinned = self._pinned_now(identifier, n) if crowd else None
         if belief.shape[1] == 0:
             self._decided, self._estimate = None, None
             return np.full(n, -1, dtype=np.int64)
@@ -193,7 +252,7 @@ class Decisions:
         top = belief[np.arange(n), best]
         decided = top >= self.threshold
         touched = self.touched
-        if self.only_in_crowd and not in_crowd(identifier.model):
+        if not crowd:
             touched = self.open_touched if in_contact(identifier.model) else None
             if touched is None:
                 return np.where(decided, best, -1)
@@ -203,6 +262,8 @@ class Decisions:
         rolled = self._rolled_now(identifier, n)
         if self.settle is not None and before is not None:
             decided &= (identifier.pushed_run <= self.settle) | (before >= 0)
+        if pinned is not None and self.pinned is not None and before is not None:
+            decided &= ~pinned | (before >= 0) | (top >= self.pinned[3])
         if self.keep < self.threshold:
             moved = rolled >= self.release if self.release is not None else np.ones(n, bool)
             pressed = identifier.pushed_run >= 2  # the contact model's pressed
@@ -229,6 +290,29 @@ class Decisions:
                 return before
         self._untouched = np.where(run >= 1, 0, before + 1)
         return self._untouched
+
+    def _pinned_now(self, identifier: Identifier, n: int) -> np.ndarray | None:
+        """``(R,)`` the robots pinned now (``pinned``: pushed in at least ``pushes`` of the newest
+        ``window`` intervals and rolled less than ``path`` over them), or None without
+        ``pinned``; the newest intervals kept for the next picture."""
+        if self.pinned is None:
+            return None
+        window, pushes, path, _ = self.pinned
+        interval = identifier.interval
+        recent = self._recent
+        if interval is None or recent is None or recent[0].shape[1] != n:
+            recent = (np.zeros((0, n), bool), np.zeros((0, n)))
+        if interval is not None:
+            kept = max(0, len(recent[0]) - (window - 1))  # the window's older intervals
+            pushed = identifier.pushed_run >= 1
+            recent = (
+                np.vstack([recent[0][kept:], pushed[None]]),
+                np.vstack([recent[1][kept:], interval.path[None]]),
+            )
+        self._recent = recent
+        if len(recent[0]) < window:
+            return np.zeros(n, bool)
+        return (recent[0].sum(axis=0) >= pushes) & (recent[1].sum(axis=0) < path)
 
     def _rolled_now(self, identifier: Identifier, n: int) -> np.ndarray:
         """``(R,)`` the path each robot decided at the previous picture has rolled since it
