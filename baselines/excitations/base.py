@@ -14,7 +14,7 @@ NOBODY = np.zeros(0, dtype=np.int64)  # no robot: skips np.flatnonzero on the co
 
 
 class Reverse(Protocol):
-    """What :meth:`Excitation.reversing` reads of a back-off
+    """What ``Excitation.reversing`` reads of a back-off
     (:class:`~baselines.excitations.backoff.BackOff` is one)."""
 
     latest: np.ndarray
