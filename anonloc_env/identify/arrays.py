@@ -105,7 +105,14 @@ def columns(count: int, kinds: Sequence[tuple[npt.DTypeLike, int]]) -> list[np.n
     allocation of 4 MiB or more with huge pages where the system allows, and a fresh array of
     10^5 tracks costs one page fault per 4 KiB otherwise (several ms of a step at N=1000)."""
     sizes = [count * max(width, 1) * np.dtype(kind).itemsize for kind, width in kinds]
-    block = np.empty(sum(sizes), dtype=np.uint8)
+    return lay_out(np.empty(sum(sizes), dtype=np.uint8), count, kinds, sizes)
+
+
+def lay_out(
+    block: np.ndarray, count: int, kinds: Sequence[tuple[npt.DTypeLike, int]], sizes: list[int]
+) -> list[np.ndarray]:
+    """:func:`columns`' arrays as views of ``block`` (``uint8``, ``sum(sizes)`` bytes), one
+    after the other, ``sizes`` bytes each."""
     out, at = [], 0
     for (kind, width), size in zip(kinds, sizes, strict=True):
         view = block[at : at + size].view(kind)

@@ -23,6 +23,7 @@ from anonloc_env.identify.arrays import group_starts, rank_in_group
 from anonloc_env.identify.gate import Gate, uniform_gate
 from anonloc_env.identify.likelihood import Pairs, Scoring, children
 from anonloc_env.identify.model import GATE_SIGMAS, push_isotropic, ring_loglik_bound
+from anonloc_env.identify.pool import Pool
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import expand_ranges, pairs_within_each
 from anonloc_env.odometry import Interval
@@ -46,12 +47,15 @@ class Builder(NamedTuple):
             bias in it, and the other robots between the pictures (``None``: clutter model).
         log_miss: ``log (1 - P_D)``.
         fast: take the fast kernels where they apply.
+        pool: the identifier's reused blocks, where the first leg writes its tracks (None: new
+            arrays).
     """
 
     scoring: Scoring
     prior: kernels.Prior
     log_miss: float
     fast: bool
+    pool: Pool | None = None
 
     def anchored(self, tracks: Tracks, anchored: np.ndarray, pairs: Pairs) -> Tracks:
         """The children of tracks ``anchored`` (indices into ``tracks``, each at a row of the
@@ -72,7 +76,9 @@ class Builder(NamedTuple):
                 sub = tracks.select(sure)
                 lo, hi = offsets[sub.row], offsets[sub.row + 1]
                 links, scoring = self.prior.links, self.scoring
-                fast = fused_calls.known_compiled(sub, lo, hi, j_pair, pairs, links, scoring)
+                fast = fused_calls.known_compiled(
+                    sub, lo, hi, j_pair, pairs, links, scoring, self.pool
+                )
             if not len(anchored):
                 return fast
         row = tracks.row[anchored]
@@ -121,7 +127,7 @@ class Builder(NamedTuple):
                 lo = np.searchsorted(a, known, side="left")
                 hi = np.searchsorted(a, known, side="right")
                 sub, links, scoring = unseen.select(known), self.prior.links, self.scoring
-                fast = fused_calls.known_compiled(sub, lo, hi, b, pairs, links, scoring)
+                fast = fused_calls.known_compiled(sub, lo, hi, b, pairs, links, scoring, self.pool)
             if not len(rest):
                 return fast
             if len(known):  # the others' own candidates, renumbered
@@ -177,7 +183,7 @@ class Builder(NamedTuple):
                     first_step.ring_leg(*leg, dist, floor, self.prior, self.scoring, BOUND_SLACK)
                 )
             else:
-                out.append(kernels.first_leg(*leg, self.prior, self.scoring))
+                out.append(kernels.first_leg(*leg, self.prior, self.scoring, self.pool))
             if fused.all():
                 return out
             live, start, counts = live[~fused], start[~fused], counts[~fused]

@@ -23,6 +23,7 @@ from anonloc_env.identify.likelihood import Pairs, Scoring
 from anonloc_env.identify.model import GATE_SIGMAS, SensorModel, log_background
 from anonloc_env.identify.others import Links, links_between
 from anonloc_env.identify.out_of_view import OutOfView, claimed_elsewhere
+from anonloc_env.identify.pool import Pool, empty, first_picture_blocks, taken
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import pairs_within
 from anonloc_env.odometry import Interval
@@ -65,6 +66,8 @@ class Identifier:
         self.registration = (
             Registration(model.registration, model.orientation) if model.registration else None
         )
+        # The large arrays' memory, kept from picture to picture and from episode to episode.
+        self.pool = Pool()
         self.reset()
 
     def reset(self) -> None:
@@ -164,6 +167,8 @@ class Identifier:
         self.rows = rows
         self.row_bias = bias
         self.pictures += 1
+        if not len(self.pool) and n_rows and self._pooled() is not None:
+            self.pool.reserve(first_picture_blocks(self.n * n_rows * 8))
         self._normalise_and_prune(parts)
         if view is not None and self.model.pooled_motion:  # rows another robot is sure of
             self.tracks, self.uniform, self.unanchored = claimed_elsewhere(
@@ -235,7 +240,7 @@ class Identifier:
         i_pair, j_pair, dist = pairs_within(prev[:, :2], rows[:, :2], max(radius, 1e-9))
         pairs = Pairs(prev, rows, i_pair, j_pair, interval, pix_var, log_bg)
         prior = kernels.Prior(self.uniform, self.row_bias, self.links)
-        build = Builder(self.scoring, prior, self.log_miss, self.fast)
+        build = Builder(self.scoring, prior, self.log_miss, self.fast, self._pooled())
         parts: list[Tracks] = []
         unanchored = self.unanchored + log_unseen  # unknown before, missed again
 
@@ -285,6 +290,10 @@ class Identifier:
                 view.uniform_lost(live, prev, interval, pix_var, prior, unanchored, leaving)
         return [p for p in parts if len(p)], unanchored
 
+    def _pooled(self) -> Pool | None:
+        """The pool, where the kernels are compiled (the numpy path allocates as it goes)."""
+        return self.pool if self.fast and compiled.mode() is not None else None
+
     def _log_rows(self) -> float:
         """Log of the newest picture's rows' total weight in the uniform weight (their count,
         or the sum of their bias)."""
@@ -308,26 +317,36 @@ class Identifier:
         """Prune, sort and normalise the new tracks, ``parts`` one after the other (gathered
         once, in the final order: the parts are never concatenated)."""
         parts = [p for p in parts if len(p)]
+        pool = self._pooled()
         if len(parts) == 1:
             slot, logw = parts[0].slot, parts[0].logw
         else:
-            slot = np.concatenate([np.zeros(0, np.int64)] + [p.slot for p in parts])
-            logw = np.concatenate([np.zeros(0)] + [p.logw for p in parts])
+            count = sum(len(p) for p in parts)
+            slots = [np.zeros(0, np.int64)] + [p.slot for p in parts]  # none: an empty one
+            slot = np.concatenate(slots, out=empty(pool, count, np.int64))
+            logw = np.concatenate([np.zeros(0)] + [p.logw for p in parts], out=empty(pool, count))
         log_rows = self._log_rows()
         uniform_total = self.uniform + log_rows
         best = np.maximum(uniform_total, self.unanchored)
         # The fields are gathered once, in the final order (the same order either way).
-        index = fused_calls.pruned_order(slot, logw, best, self.max_tracks) if self.fast else None
+        index = None
+        if self.fast:
+            index = fused_calls.pruned_order(slot, logw, best, self.max_tracks, pool)
         if index is None:  # numpy, or a robot the model ruled out
             index = self._pruned_order(parts, slot, logw, best)
-        tracks = Tracks.gather(parts, index)
-        # Normalise each robot's weights to sum to one.
+        del slot, logw  # their blocks free again
+        tracks = Tracks.gather(parts, index, pool)
+        del index
+        # Normalise each robot's weights to sum to one (``best[tracks.slot]`` and the like
+        # taken into blocks of the pool: the same numbers as the expressions they spell out).
         sums = np.exp(uniform_total - best) + np.exp(self.unanchored - best)
-        sums += np.bincount(
-            tracks.slot, weights=np.exp(tracks.logw - best[tracks.slot]), minlength=self.n
-        )
+        shifted = taken(best, tracks.slot, pool)
+        np.subtract(tracks.logw, shifted, out=shifted)
+        sums += np.bincount(tracks.slot, weights=np.exp(shifted, out=shifted), minlength=self.n)
+        del shifted
         total = best + np.log(sums)
-        tracks.logw = tracks.logw - total[tracks.slot]
+        logw = taken(total, tracks.slot, pool)
+        tracks.logw = np.subtract(tracks.logw, logw, out=logw)  # tracks.logw - total[slot]
         self.uniform = self.uniform - total
         self.unanchored = self.unanchored - total
         # Implicit weights too small to matter stop costing anything.
@@ -366,8 +385,8 @@ class Identifier:
     def _compute_belief(self) -> None:
         """Each robot's total weight and what each track's weight is of it; the ``(R, n)``
         table itself is filled when :meth:`belief` first asks for it."""
-        tracks = self.tracks
-        weights = np.exp(tracks.logw)
+        tracks, pool = self.tracks, self._pooled()
+        weights = np.exp(tracks.logw, out=empty(pool, len(tracks)))
         seen = tracks.row >= 0
         if seen.all():
             slot, row, seen_w = tracks.slot, tracks.row, weights
@@ -384,7 +403,9 @@ class Identifier:
             np.bincount(slot, weights=seen_w, minlength=self.n) + spread.sum() * uniform + missing
         )
         # Each weight divided by its robot's total before any table is filled.
-        self._shares = (slot, row, seen_w / total[slot], uniform / total, spread)
+        share = taken(total, slot, pool)
+        share = np.divide(seen_w, share, out=share)  # seen_w / total[slot]
+        self._shares = (slot, row, share, uniform / total, spread)
         self._flat_spread = self.row_bias is None  # every row of ``spread`` is one
         self._belief = None
         self._missing = missing / total
@@ -405,6 +426,10 @@ class Identifier:
                 raise RuntimeError("no picture yet: call update() first")
             slot, row, share, uniform, spread = self._shares
             n_rows = len(spread)
+            if self._flat_spread and self._pooled() is not None:  # the same sums, reused memory
+                self._belief = self.pool.array((self.n, n_rows))
+                fused.belief_table(slot, row, share, uniform, self._belief)
+                return self._belief
             belief = np.bincount(
                 slot * n_rows + row, weights=share, minlength=self.n * n_rows
             ).reshape(self.n, n_rows)

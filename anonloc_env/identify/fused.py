@@ -197,21 +197,22 @@ def first_leg(
 
 @jit
 def pruned_order(
-    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, nats: float, cap: int
+    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, nats: float, cap: int, into: np.ndarray
 ) -> tuple[np.ndarray, bool]:
     """``Identifier._normalise_and_prune``'s order (see :mod:`anonloc_env.identify.filter`):
     each robot's best raised to its tracks' (``best`` ``(R,)``, in place), the tracks ``slot``,
     ``logw`` ``(H,)`` at most ``nats`` below it kept, sorted by robot and by the key
     ``slot * (2 nats + 2) + (best - logw)`` (ties by index, as ``np.argsort(kind="stable")``),
-    at most ``cap`` per robot. Returns ``(index, ok)``; ``ok`` False, and ``index`` empty, when
-    a robot's best is not finite (the caller's numpy path starts it over)."""
+    at most ``cap`` per robot. Returns ``(index, ok)``, ``index`` the start of ``into`` (at
+    least ``(H,)``); ``ok`` False, and ``index`` empty, when a robot's best is not finite (the
+    caller's numpy path starts it over)."""
     n, h_count = best.shape[0], slot.shape[0]
     for k in range(h_count):
         i = slot[k]
         best[i] = compiled.maximum(best[i], logw[k])
     for i in range(n):
         if not np.isfinite(best[i]):
-            return np.empty(0, dtype=np.int64), False
+            return into[:0], False
     # The kept tracks by robot, each robot's in the order of their index (a counting sort).
     start = np.zeros(n + 1, dtype=np.int64)
     for k in range(h_count):
@@ -221,7 +222,7 @@ def pruned_order(
     for i in range(n):
         widest = max(widest, start[i + 1])
         start[i + 1] += start[i]
-    index = np.empty(start[n], dtype=np.int64)
+    index = into[: start[n]]
     fill = start[:n].copy()
     for k in range(h_count):
         if logw[k] >= best[slot[k]] - nats:
@@ -273,6 +274,8 @@ def known_children(
     rows: np.ndarray,
     numbers: np.ndarray,
     orientation: bool,
+    index: np.ndarray,
+    out: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The gate and the Kalman step of tracks that all know their heading and scale and carry
     no motion: ``Gate.of`` (its ``_all_known``), ``Gate.passes`` and
@@ -286,17 +289,13 @@ def known_children(
     ``numbers``: the pixel variance, the scale spread, the detected heading's variance and the
     gate's chi-square.
 
-    Returns ``(index, out)``: ``index`` ``(2, K)`` each candidate's track and place in
-    ``cand``; ``out`` ``(4, K)``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis
+    Returns ``(index, out)``, the first ``K`` columns of ``index`` ``(2, C)`` and ``out``
+    ``(4, C)`` (``C`` the candidates, ``sum(hi - lo)``): ``index`` each candidate's track and
+    place in ``cand``; ``out``: ``b a`` (whose ``log`` the caller takes), the Mahalanobis
     term, the heading and its variance after the step."""
     pix_var, spread_s, theta_var, gate_chi2 = numbers[0], numbers[1], numbers[2], numbers[3]
     slot_of, lo, hi = track[0], track[1], track[2]
     h_count = slot_of.shape[0]
-    total = 0
-    for h in range(h_count):
-        total += hi[h] - lo[h]
-    index = np.empty((2, total), dtype=np.int64)
-    out = np.empty((4, total))
     rho = np.empty(d.shape[0])  # each robot's path, once per robot (not per track)
     for i in range(d.shape[0]):
         rho[i] = math.hypot(d[i, 0], d[i, 1])
@@ -354,6 +353,8 @@ def finish_known(
     bg: np.ndarray,
     numbers: np.ndarray,
     orientation: bool,
+    keep: np.ndarray,
+    logw: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`~anonloc_env.identify.likelihood.orientation`, the weight and
     :func:`~anonloc_env.identify.likelihood.pruned`'s prune of the candidates of
@@ -363,11 +364,10 @@ def finish_known(
     or ``(1,)`` what each is divided by (a log); ``numbers``: the detected heading's variance,
     ``log(2 pi)``, ``log P_D`` and the prune's nats.
 
-    Returns ``(keep, logw)``: the candidates kept (in order) and every candidate's log
-    weight."""
+    Returns ``(keep, logw)``: the candidates kept (in order, the start of ``keep``) and every
+    candidate's log weight (``logw``); ``keep`` and ``logw`` ``(K,)`` are written."""
     var_z, log_2pi, log_pd, nats = numbers[0], numbers[1], numbers[2], numbers[3]
     n = slot.shape[0]
-    logw = np.empty(n)
     for k in range(n):
         if orientation:
             err = _wrap(detected[k] - theta[k])
@@ -377,7 +377,6 @@ def finish_known(
             theta[k] += gain * err
             p_tt[k] *= 1 - gain
         logw[k] = base[k] + log_pd + loglik[k] - _at(bg, k)
-    keep = np.empty(n, dtype=np.int64)
     kept = 0
     start = 0
     while start < n:
@@ -392,7 +391,7 @@ def finish_known(
                 keep[kept] = k
                 kept += 1
         start = end
-    return keep[:kept].copy(), logw
+    return keep[:kept], logw
 
 
 @jit
@@ -481,6 +480,27 @@ def general_kalman(x: np.ndarray, pix_var: float, spread: float) -> np.ndarray:
     return out
 
 
+@jit
+def belief_table(
+    slot: np.ndarray, row: np.ndarray, share: np.ndarray, uniform: np.ndarray, table: np.ndarray
+) -> None:
+    """``Identifier.belief``'s table with no row bias, written into ``table`` ``(R, n)``: the
+    shares ``share`` of tracks ``slot``, ``row`` summed in their order from zero (as
+    ``np.bincount`` sums them), then each robot's uniform weight ``uniform`` added to its row
+    where any is not zero (as ``belief += uniform[:, None]``)."""
+    n_robots, n_rows = table.shape
+    for i in range(n_robots):
+        for r in range(n_rows):
+            table[i, r] = 0.0
+    for k in range(slot.shape[0]):
+        table[slot[k], row[k]] += share[k]
+    if np.any(uniform != 0.0):
+        for i in range(n_robots):
+            u = uniform[i]
+            for r in range(n_rows):
+                table[i, r] += u
+
+
 _LOADED: list[bool] = []
 
 
@@ -504,11 +524,15 @@ def load() -> None:
     first_leg(two, one, one, one + 1, leg, (one, one, ones((1, 2)), floats, floats, floats))
     known_children(
         np.array([[0], [0], [1]]), ones((4, 1)), ones(1), ones(1), ones((4, 1)), ones((1, 2)),
-        one, ones((1, 3)), ones(4), True,
+        one, ones((1, 3)), ones(4), True, np.zeros((2, 1), np.int64), ones((4, 1)),
     )  # fmt: skip
-    finish_known(one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True)
+    finish_known(
+        one, ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(1), ones(4), True,
+        one.copy(), ones(1),
+    )  # fmt: skip
     general_kalman(ones((17, 1)), 1.0, 1.0)
-    pruned_order(one, ones(1), ones(1), 30.0, 8)
+    pruned_order(one, ones(1), ones(1), 30.0, 8, one.copy())
+    belief_table(one, one, ones(1), ones(1), ones((1, 1)))
     fields = (ones(1), ones(1), ones(1), ones(1), ones(1))
     general_inputs(
         one,

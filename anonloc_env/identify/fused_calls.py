@@ -15,7 +15,6 @@ import math
 import numpy as np
 
 from anonloc_env import compiled
-from anonloc_env.geometry import wrap_angle
 from anonloc_env.identify import fused
 from anonloc_env.identify.arrays import (
     group_sizes,
@@ -40,6 +39,7 @@ from anonloc_env.identify.likelihood import (
 )
 from anonloc_env.identify.model import LOG_2PI, SensorModel, push_covariance
 from anonloc_env.identify.others import Links
+from anonloc_env.identify.pool import Pool, empty, taken
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.odometry import Interval
 
@@ -152,16 +152,19 @@ def renumbered(
 
 
 def pruned_order(
-    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, cap: int
+    slot: np.ndarray, logw: np.ndarray, best: np.ndarray, cap: int, pool: Pool | None = None
 ) -> np.ndarray | None:
     """The identifier's pruned and sorted order of the tracks ``slot``, ``logw`` by
     :func:`anonloc_env.identify.fused.pruned_order` (the order of
     ``Identifier._pruned_order``, without its temporaries), ``best`` raised in place; None
-    where the kernels are off, or a robot's best is not finite (``best`` then untouched)."""
+    where the kernels are off, or a robot's best is not finite (``best`` then untouched). The
+    order is written into a block of ``pool`` where given."""
     if compiled.mode() is None:
         return None
     raised = best.copy()
-    index, ok = fused.pruned_order(slot.astype(np.int64, copy=False), logw, raised, PRUNE_NATS, cap)
+    into = empty(pool, len(slot), np.int64)
+    slot = slot.astype(np.int64, copy=False)
+    index, ok = fused.pruned_order(slot, logw, raised, PRUNE_NATS, cap, into)
     if not ok:
         return None
     best[:] = raised
@@ -185,6 +188,7 @@ def known_compiled(
     pairs: Pairs,
     links: Links | None,
     scoring: Scoring,
+    pool: Pool | None = None,
 ) -> Tracks:
     """The children of tracks ``sub`` that all know their heading and scale and carry no motion,
     track ``h``'s candidate rows ``cand[lo[h]:hi[h]]``, by the compiled kernels (the same
@@ -192,17 +196,18 @@ def known_compiled(
     :func:`~anonloc_env.identify.kernels.known_children` (which
     equals :func:`~anonloc_env.identify.likelihood.children` for such tracks), the general Kalman
     step for the candidates it hands there, the detected heading and the prune, in one pass
-    over the candidates instead of blocks of numpy calls. ``Builder.anchored`` and
-    ``Builder.from_missed`` take it."""
+    over the candidates instead of blocks of numpy calls (its per-candidate arrays in blocks of
+    ``pool`` where given). ``Builder.anchored`` and ``Builder.from_missed`` take it."""
     rows, interval, pix_var = pairs.rows, pairs.interval, pairs.pix_var
     model = scoring.model
     s = np.exp(sub.log_s[:1]) if is_shared(sub.log_s) else np.exp(sub.log_s)
     var_d, var_dphi = interval.variances(model.odometry_noise)
     n = len(interval.d)
     worst = worst_variance(np.arange(n), interval, model, pix_var)
+    total, count = int((hi - lo).sum()), len(sub)
     index, out = fused.known_children(
-        np.stack([sub.slot, lo, hi]).astype(np.int64, copy=False),  # fresh: one copy
-        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt]),
+        np.stack([sub.slot, lo, hi], out=empty(pool, (3, count), np.int64)),
+        np.stack([sub.pos[:, 0], sub.pos[:, 1], sub.theta, sub.p_tt], out=empty(pool, (4, count))),
         np.array(sub.pos_var[:1] if is_shared(sub.pos_var) else sub.pos_var),  # writable
         np.ascontiguousarray(s, dtype=np.float64),
         np.stack([interval.dphi, worst, var_d, var_dphi]),
@@ -211,8 +216,11 @@ def known_compiled(
         np.ascontiguousarray(rows, dtype=np.float64),
         np.array([pix_var, model.scale_spread, scoring.theta_var, GATE_CHI2]),
         bool(model.orientation),
+        empty(pool, (2, total), np.int64),
+        empty(pool, (4, total)),
     )
-    return _finish_compiled(sub, index[0], cand[index[1]], pairs, links, scoring, out)
+    places = taken(cand, index[1], pool)  # cand[index[1]]
+    return _finish_compiled(sub, index[0], places, pairs, links, scoring, out, pool)
 
 
 def _finish_compiled(
@@ -223,19 +231,22 @@ def _finish_compiled(
     links: Links | None,
     scoring: Scoring,
     out: np.ndarray,
+    pool: Pool | None = None,
 ) -> Tracks:
     """What :func:`known_compiled` does after the gate and the Kalman step of
     :func:`anonloc_env.identify.fused.known_children` (track ``parent[k]`` at row ``cand[k]``,
     ``out``): the log, the general Kalman step where
     :func:`~anonloc_env.identify.kernels.known_children` takes it, then the
     detected heading, the weights and the prune
-    (:func:`anonloc_env.identify.fused.finish_known`)."""
+    (:func:`anonloc_env.identify.fused.finish_known`). The per-candidate arrays of the
+    common path, and the tracks', in blocks of ``pool`` where given (the same numbers as the
+    expressions the comments spell out)."""
     rows, interval, pix_var, log_bg = pairs.rows, pairs.interval, pairs.pix_var, pairs.log_bg
     model = scoring.model
     count = len(parent)
-    slot = sub.slot[parent]
+    slot = taken(sub.slot, parent, pool)  # sub.slot[parent]
     child = Child(
-        loglik=-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1],
+        loglik=_loglik(out, pool),
         theta=out[2],
         p_tt=out[3],
         log_s=take_field(sub.log_s, parent, count),
@@ -255,30 +266,40 @@ def _finish_compiled(
         near, _ = near_best(slot, logw, PRUNE_NATS)
         tracks = fresh_children(near, slot, cand, rows[cand], logw, child, pix_var)
         return filter_positions(tracks, sub, parent[near], interval, model)
-    log_var = np.log(child.p_tt + scoring.theta_var) if model.orientation else child.p_tt
+    log_var = child.p_tt
+    if model.orientation:  # np.log(child.p_tt + scoring.theta_var)
+        log_var = np.add(child.p_tt, scoring.theta_var, out=empty(pool, count))
+        np.log(log_var, out=log_var)
     theta, p_tt = child.theta, child.p_tt  # rows of out, or the general step's: our own
     keep, logw = fused.finish_known(
-        np.ascontiguousarray(slot, dtype=np.int64),  # read only: slot is fresh
-        np.ascontiguousarray(rows[cand, 2]),
+        slot,  # int64, contiguous, fresh
+        taken(rows[:, 2], cand, pool),  # rows[cand, 2]
         child.loglik,
         theta,
         p_tt,
         log_var,
-        np.ascontiguousarray(sub.logw[parent]),
+        taken(sub.logw, parent, pool),  # sub.logw[parent]
         bg,
         np.array([scoring.theta_var, math.log(2 * math.pi), scoring.log_pd, PRUNE_NATS]),
         bool(model.orientation),
+        empty(pool, count, np.int64),
+        empty(pool, count),
     )
+    del log_var
     kept = len(keep)
-    c = cand[keep]
+    c = taken(cand, keep, pool)  # cand[keep]
+    theta = taken(theta, keep, pool)  # wrap_angle(theta[keep]), in place
+    np.add(theta, math.pi, out=theta)
+    np.mod(theta, 2.0 * math.pi, out=theta)
+    np.subtract(theta, math.pi, out=theta)
     tracks = Tracks.fresh(
-        slot[keep],
+        taken(slot, keep, pool),  # slot[keep]
         c,
-        positions(rows, c),
-        logw[keep],
+        _positions(rows, c, pool),
+        taken(logw, keep, pool),  # logw[keep]
         pos_var=pix_var,
-        theta=wrap_angle(theta[keep]),
-        p_tt=p_tt[keep],
+        theta=theta,
+        p_tt=taken(p_tt, keep, pool),  # p_tt[keep]
         log_s=take_field(child.log_s, keep, kept),
         p_ts=take_field(child.p_ts, keep, kept),
         p_ss=take_field(child.p_ss, keep, kept),
@@ -286,3 +307,21 @@ def _finish_compiled(
     if model.filter_position:
         filter_positions(tracks, sub, parent[keep], interval, model)
     return tracks
+
+
+def _positions(rows: np.ndarray, index: np.ndarray, pool: Pool | None) -> np.ndarray:
+    """``positions(rows, index)``, in a block of ``pool`` where given and large enough."""
+    out = empty(pool, (len(index), 2))
+    if out.base is None:  # a fresh array: numpy's own take
+        return positions(rows, index)
+    return rows[:, :2].take(index, axis=0, out=out, mode="clip")
+
+
+def _loglik(out: np.ndarray, pool: Pool | None) -> np.ndarray:
+    """``-LOG_2PI - 0.5 * np.log(out[0]) - 0.5 * out[1]`` (the same operations in the same
+    order), in blocks of ``pool`` where given."""
+    loglik = np.log(out[0], out=empty(pool, out.shape[1]))
+    np.multiply(0.5, loglik, out=loglik)
+    np.subtract(-LOG_2PI, loglik, out=loglik)
+    half = np.multiply(0.5, out[1], out=empty(pool, out.shape[1]))
+    return np.subtract(loglik, half, out=loglik)

@@ -42,6 +42,7 @@ from anonloc_env.identify.likelihood import (
 )
 from anonloc_env.identify.model import LOG_2PI
 from anonloc_env.identify.others import Links
+from anonloc_env.identify.pool import Pool
 from anonloc_env.identify.tracks import Tracks
 from anonloc_env.neighbours import expand_ranges
 from anonloc_env.odometry import Interval
@@ -109,6 +110,7 @@ def first_leg(
     pairs: Pairs,
     prior: Prior,
     scoring: Scoring,
+    pool: Pool | None = None,
 ) -> Tracks:
     """Equals the general path ``Identifier(fast=False)`` takes for robots nothing pushed,
     heading detected, scale known: a parent track per pair at its first row (position variance
@@ -121,7 +123,8 @@ def first_leg(
     Robot ``robots[k]``'s candidates are the pairs ``by_length[start[k]:start[k] + counts[k]]``.
     Computed in the robot's frame at the pair's first row: the pair is turned once, what depends
     on the robot alone is computed once per robot, and no parent track is built. The tracks come
-    grouped by robot, heaviest first within each.
+    grouped by robot, heaviest first within each; with the kernels compiled, in a block of
+    ``pool`` where given.
     """
     rows, j_pair = pairs.rows, pairs.j_pair
     model = scoring.model
@@ -140,7 +143,7 @@ def first_leg(
     leg = _Leg(cuts, robots, start, counts, by_length, s, per_robot, frames, pairs, prior, scoring)
     p_tt = per_robot.p_tt1 * (1 - per_robot.gain)  # what each robot's tracks keep
     if compiled.mode() is not None:  # the same floats in one call
-        slot, row, pos, logw, theta, p_tt = _first_leg_compiled(leg, p_tt)
+        slot, row, pos, logw, theta, p_tt = _first_leg_compiled(leg, p_tt, pool)
     else:
         slot, pick, logw, theta = _first_leg_blocks(leg)
         row = j_pair[pick]
@@ -191,10 +194,13 @@ def _first_leg_blocks(leg: _Leg) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return out_slot[:count], out_pick[:count], out_logw[:count], out_theta[:count]
 
 
-def _first_leg_compiled(leg: _Leg, p_tt: np.ndarray) -> tuple[np.ndarray, ...]:
+def _first_leg_compiled(
+    leg: _Leg, p_tt: np.ndarray, pool: Pool | None = None
+) -> tuple[np.ndarray, ...]:
     """:func:`_first_leg_blocks` and the tracks' rows, positions and heading variances (``p_tt``
     of each robot) by :func:`anonloc_env.identify.fused.first_leg` (the same floats), written
-    into one allocation: ``(slot, row, pos, logw, theta, p_tt)``."""
+    into one allocation (a block of ``pool`` where given): ``(slot, row, pos, logw, theta,
+    p_tt)``."""
     pairs, prior, by_length = leg.pairs, leg.prior, leg.by_length
     per_pair = np.zeros((2, len(pairs.i_pair)))
     if prior.links is not None:  # for every pair, added as _first_leg_block adds it
@@ -206,7 +212,8 @@ def _first_leg_compiled(leg: _Leg, p_tt: np.ndarray) -> tuple[np.ndarray, ...]:
     assert model_scale is not None
     numbers = [leg.s, model_scale, leg.scoring.theta_var, GATE_CHI2, PRUNE_NATS]
     total = int(leg.counts.sum())
-    out = columns(total, [(np.int64, 0), (np.int64, 0), (np.float64, 2)] + [(np.float64, 0)] * 3)
+    kinds = [(np.int64, 0), (np.int64, 0), (np.float64, 2)] + [(np.float64, 0)] * 3
+    out = columns(total, kinds) if pool is None else pool.columns(total, kinds)
     count = fused.first_leg(
         leg.cuts,
         leg.robots.astype(np.int64),

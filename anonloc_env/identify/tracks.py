@@ -14,7 +14,7 @@ import numpy as np
 
 from anonloc_env.geometry import rotate
 from anonloc_env.identify.arrays import alike, columns, shared, take_field
-from anonloc_env.neighbours import expand_ranges
+from anonloc_env.identify.pool import Pool, empty
 from anonloc_env.odometry import Interval
 
 #: ``Tracks.gather`` copies runs of at least this many consecutive tracks as slices.
@@ -141,11 +141,11 @@ class Tracks:
         return Tracks(*out)
 
     @staticmethod
-    def gather(parts: list[Tracks], index: np.ndarray) -> Tracks:
+    def gather(parts: list[Tracks], index: np.ndarray, pool: Pool | None = None) -> Tracks:
         """``Tracks.concat(parts).take(index)``, without building the concatenation (each
         field is filled part by part: no large array is written twice). Runs of consecutive
         tracks (a part already in order) are copied as slices; a lone part taken whole is
-        returned itself."""
+        returned itself. Large outputs are written into a block of ``pool`` where given."""
         parts = [p for p in parts if len(p)]
         if not parts:
             return Tracks.empty().take(index)
@@ -154,13 +154,14 @@ class Tracks:
             return parts[0]
         if bounds[-1] <= SMALL_GATHER:  # the same arrays as below, fewer calls
             return _gather_small(parts, index)
-        runs, where, local = _plan(bounds, index)
+        runs, where, local = _plan(bounds, index, pool)
         every = [[getattr(p, f) for p in parts] for f in FIELDS]
         same = [alike(arrays, len(index)) for arrays in every]
         out = [np.empty(0) if a is None else a for a in same]
         written = [f for f, a in enumerate(same) if a is None]
         kinds = [(np.result_type(*every[f]), _width(every[f][0])) for f in written]
-        for f, into in zip(written, columns(len(index), kinds), strict=True):  # one allocation
+        blocks = columns(len(index), kinds) if pool is None else pool.columns(len(index), kinds)
+        for f, into in zip(written, blocks, strict=True):  # one allocation
             arrays = every[f]
             for to, k, start, count in runs:
                 into[to : to + count] = arrays[k][start : start + count]
@@ -198,14 +199,16 @@ def _is_identity(index: np.ndarray) -> bool:
 
 
 def _plan(
-    bounds: np.ndarray, index: np.ndarray
+    bounds: np.ndarray, index: np.ndarray, pool: Pool | None
 ) -> tuple[list[tuple[int, int, int, int]], list[np.ndarray], list[np.ndarray]]:
     """How :meth:`~anonloc_env.identify.tracks.Tracks.gather` fills its output from parts
     whose tracks start at ``bounds``: ``(runs, where, local)``, the runs copied as slices
     ``(to, part, start, count)``, and per part the output positions ``where`` filled one by one
     from its tracks ``local``. A run is where ``index`` steps by one, within one part, for at
-    least :data:`MIN_RUN` tracks."""
-    brk = np.diff(index) != 1
+    least :data:`MIN_RUN` tracks (its large temporaries in blocks of ``pool``, where given)."""
+    step = np.subtract(index[1:], index[:-1], out=empty(pool, max(len(index) - 1, 0), np.int64))
+    brk = step != 1  # np.diff(index) != 1
+    del step
     for bound in bounds[1:-1].tolist():
         brk |= index[1:] == bound
     first = np.concatenate([[0], np.flatnonzero(brk) + 1])
@@ -218,9 +221,12 @@ def _plan(
         where = [np.flatnonzero(part == k) for k in range(n_parts)]
     else:
         first, size = first[long], size[long]
-        short = np.ones(len(index), dtype=bool)
-        short[expand_ranges(first, size)] = False
-        at = np.flatnonzero(short)
+        # Outside every run (they do not overlap): where the count of runs begun and not ended
+        # is zero (no (H,) integer temporaries, as expand_ranges of the runs would build).
+        edges = np.zeros(len(index) + 1, dtype=np.int8)
+        edges[first] += 1  # each index once per statement; a run may end where one begins
+        edges[first + size] -= 1
+        at = np.flatnonzero(np.cumsum(edges[:-1], dtype=np.int8) == 0)
         part = np.searchsorted(bounds, index[at], side="right") - 1
         where = [at[part == k] for k in range(n_parts)]
     local = [index[w] - bounds[k] for k, w in enumerate(where)]
