@@ -51,6 +51,7 @@ from anonloc_env.identify import SensorModel, ring_loglik
 from anonloc_env.rewards import turn_cost, wheel_travel
 from baselines.excitations import Excitation
 from baselines.excitations.candidates import GreedySettings, candidate_commands
+from baselines.excitations.reflex import BumpReflex
 from baselines.steps import BeliefView, Step
 
 
@@ -454,6 +455,8 @@ class GreedyIdentification(Excitation):
     Args:
         settings: candidates, the others' model, hypotheses and energy weight.
     """
+
+    backoff: BumpReflex  # narrows Excitation.backoff: this excitation always has one
 
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()

@@ -26,6 +26,11 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   still as the duty allows; in free motion its rest); ``agent-still-energy-E`` the same with
   ``E`` added to the ``energy*on_duty`` weight;
 - ``agent-noprobe``: the bundled agent at rest without its probe (``probe=None``);
+- ``agent-reach-B``: ``B`` added to the ``reach*always`` weight (``B > 0``: every robot prefers
+  candidates that carry it further, fourteenth round), at rest;
+- the suffix ``-pinned`` (after ``agent``, ``agent-nodecided``, ``agent-size-B``,
+  ``agent-reach-B`` or ``uniform-rest``): resting robots hold still through bumps, the rest
+  before the fourteenth round (``RestWhenSure(yield_to_bumps=False)``);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -152,7 +157,8 @@ def variant(name: str) -> Callable[[], Excitation]:
         ValueError: a name this script does not know.
     """
     rest: float | None = None if name.endswith("-norest") else REST
-    base = name.removesuffix("-norest")
+    pinned = name.endswith("-pinned")
+    base = name.removesuffix("-norest").removesuffix("-pinned")
     if base in ("uniform", "uniform-rest"):
         rest = REST if base == "uniform-rest" else None
         inner: Callable[[], Excitation] = EXCITATIONS["uniform"]
@@ -166,6 +172,9 @@ def variant(name: str) -> Callable[[], Excitation]:
         elif base.startswith("agent-still-energy-"):
             add = float(base.removeprefix("agent-still-energy-"))
             model = edited_agent(lambda term, w: w + add if term == "energy*on_duty" else w)
+        elif base.startswith("agent-reach-"):
+            add = float(base.removeprefix("agent-reach-"))
+            model = edited_agent(lambda term, w: w + add if term == "reach*always" else w)
         elif base == "agent-nodecided":
             model = edited_agent(lambda term, w: 0.0 if term.endswith("*decided") else w)
         elif base.startswith("agent-size-"):
@@ -193,6 +202,8 @@ def variant(name: str) -> Callable[[], Excitation]:
     if base.startswith("agent-still"):
         box = GreedySettings()
         return lambda: StillOnDuty(inner(), sure, box.speed[1], box.turn)
+    if pinned:
+        return lambda: RestWhenSure(inner(), sure, yield_to_bumps=False)
     return lambda: RestWhenSure(inner(), sure)
 
 
@@ -227,6 +238,40 @@ def origins(result: EpisodeResult, picture: int) -> np.ndarray:
     return out
 
 
+#: A robot's own displacement over an interval below this (m) is a short one (``--why``): about
+#: five times the pixel noise at the evaluation's scale, too short to tell the robot from a row
+#: that stayed still.
+SHORT = 0.05
+#: The columns of ``--why``: the robots not right at ``K`` whose belief in their own row was 0.5
+#: to 0.99 at ``K - 1``, all, then those whose own displacement over the interval between was
+#: short, and of those the ones that began the interval reversing out of a bump.
+WHY_NAMES = ("fairly sure at K - 1", "moved < 5 cm", "of which reversing at its start")
+
+
+def why(result: EpisodeResult, picture: int) -> np.ndarray:
+    """``(3,)`` counts :data:`WHY_NAMES` at ``picture`` (the team's own records; the interval is
+    the robots' own odometry between ``picture - 1`` and ``picture``, its command the one set
+    just after ``picture - 1``: a negative speed is a back-off)."""
+    before = {
+        r.robot: r.belief_true
+        for r in result.records
+        if r.picture == picture - 1 and r.localizer == ""
+    }
+    interval = result.intervals[picture - 1]
+    out = np.zeros(len(WHY_NAMES), np.int64)
+    for r in result.records:
+        if r.picture != picture or r.localizer != "" or r.correct:
+            continue
+        if not 0.5 <= before.get(r.robot, 0.0) < 0.99:
+            continue
+        out[0] += 1
+        if float(np.hypot(*interval.d[r.robot])) < SHORT:
+            out[1] += 1
+            command = interval.command
+            out[2] += int(command is not None and command[r.robot, 0] < 0.0)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--condition", default="free N=300")
@@ -240,12 +285,18 @@ def main() -> None:
         default=None,
         help="also count the robots not right at this picture by their belief the picture before",
     )
+    parser.add_argument(
+        "--why",
+        type=int,
+        default=None,
+        help="also count the fairly sure robots not right at this picture by how far they moved",
+    )
     args = parser.parse_args()
     makers = {name: variant(name) for name in args.variants}  # unknown names fail first
     conditions = evaluation_conditions() | crowded_conditions() | beyond_conditions()
     config, condition, budget = conditions[args.condition]
     seeds = range(args.first_seed, args.first_seed + args.episodes)
-    firsts, shares, origin = {}, {}, {}
+    firsts, shares, origin, whys = {}, {}, {}, {}
     header = " | ".join(f"not right at {k}" for k in EARLY)
     print(f"| variant | pictures | energy (m) | {header} |\n" + "|---" * (3 + len(EARLY)) + "|")
     for name, make in makers.items():
@@ -255,6 +306,8 @@ def main() -> None:
         shares[name] = np.stack([not_right(r) for r in results])
         if args.origins is not None:
             origin[name] = sum(origins(r, args.origins) for r in results)
+        if args.why is not None:
+            whys[name] = sum(why(r, args.why) for r in results)
         cells = " | ".join(f"{100 * s:.3f} %" for s in shares[name].mean(axis=0))
         mean = firsts[name].mean(axis=0)
         seconds = time.perf_counter() - start
@@ -281,6 +334,11 @@ def main() -> None:
         )
         print("|---" * (1 + len(ORIGIN_NAMES)) + "|")
         for name, counts in origin.items():
+            print(f"| {name} | " + " | ".join(str(int(c)) for c in counts) + " |")
+    if whys:
+        print(f"\n| variant | not right at {args.why}: " + " | ".join(WHY_NAMES) + " |")
+        print("|---" * (1 + len(WHY_NAMES)) + "|")
+        for name, counts in whys.items():
             print(f"| {name} | " + " | ".join(str(int(c)) for c in counts) + " |")
 
 

@@ -85,6 +85,9 @@ class _Constant:
     def commands(self, step: object, dt: float) -> tuple[np.ndarray, np.ndarray]:
         return np.full(self.n, 0.3), np.full(self.n, -0.5)
 
+    def reversing(self) -> np.ndarray:
+        return np.zeros(self.n, bool)
+
 
 def test_still_on_duty_opposes_the_shared_command_only_for_resting_robots() -> None:
     """On duty a resting robot's deviation is ``-shared / budget`` clipped to the box; a moving

@@ -14,6 +14,7 @@ import anonloc_env
 import baselines
 from agents.evaluation import censored, play
 from baselines.excitations import Excitation, SwarmDuty
+from baselines.excitations.backoff import BackOff, DistinctSettings
 from baselines.excitations.rest import SURE, RestWhenSure
 from baselines.registry import make_excitation
 from baselines.steps import Step
@@ -31,6 +32,29 @@ class Ones(Excitation):
         for rng in self.rngs:
             rng.random()
         return np.full(self.n, 0.3), np.full(self.n, 0.5)
+
+
+class OnesThatBack(Ones):
+    """:class:`Ones` that reverses out of bumps (``DistinctSettings``' back-off: 0.3 m/s for 0.5
+    to 1 s, turning at a rate in [-0.5, 0.5] rad/s)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.backoff = BackOff(DistinctSettings())
+
+    def reset(self, rngs: Any) -> None:
+        super().reset(rngs)
+        self.backoff.reset(self.rngs)
+
+    def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.backoff.commands(
+            step, dt, lambda hit: super(OnesThatBack, self).commands(step, dt)
+        )
+
+
+def bumps(*hit: bool) -> Any:
+    """A control step's observations: the bumpers ``hit`` (no picture)."""
+    return SimpleNamespace(bumper=np.array(hit), new_picture=False)
 
 
 def make_excitation_of(name: str) -> Callable[[], Excitation]:
@@ -75,6 +99,54 @@ def test_a_sure_robot_rests_and_the_others_drive_the_inner_commands() -> None:
     v, _ = rest.commands(None, 0.05)  # type: ignore[arg-type]
     assert v.tolist() == [0.3, 0.3, 0.0]
     assert inner.draws == 3  # the inner excitation is asked every step: same random numbers
+
+
+@pytest.mark.parametrize("yield_to_bumps", [True, False])
+def test_in_free_motion_a_resting_robot_backs_out_of_a_bump(yield_to_bumps: bool) -> None:
+    """Robots 0 and 1 rest, 2 drives; 0 and 2 are bumped. With ``yield_to_bumps`` robot 0 drives
+    the same reverse as the inner excitation alone (seeded alike) until it ends, then rests
+    again; robot 1 holds still throughout. Without, both resting robots hold still."""
+    rest = RestWhenSure(OnesThatBack(), yield_to_bumps=yield_to_bumps)
+    alone = OnesThatBack()
+    rest.reset([np.random.default_rng(k) for k in range(3)])
+    alone.reset([np.random.default_rng(k) for k in range(3)])
+    _picture(rest, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.4, 0.3, 0.3]])
+    reversing = []
+    for k in range(30):  # 1.5 s: longer than any back-off (at most 1 s)
+        step = bumps(True, False, True) if k == 0 else bumps(False, False, False)
+        v, w = rest.commands(step, 0.05)
+        v_alone, w_alone = alone.commands(step, 0.05)
+        assert v[2] == v_alone[2]
+        assert w[2] == w_alone[2]
+        assert v[1] == 0.0
+        assert w[1] == 0.0
+        if yield_to_bumps:
+            assert (v[0], w[0]) == ((v_alone[0], w_alone[0]) if v_alone[0] < 0 else (0.0, 0.0))
+        else:
+            assert (v[0], w[0]) == (0.0, 0.0)
+        reversing.append(rest.reversing().tolist())
+    assert v_alone[0] > 0  # the reverse ended within the steps checked
+    assert reversing[0] == [yield_to_bumps, False, True]  # what the robots drove at that step
+    assert reversing[-1] == [False, False, False]
+
+
+def test_on_swarm_duty_a_resting_robot_keeps_the_shared_command_through_a_bump() -> None:
+    """On duty the rest does not yield: both robots' commands, through bumps, are those of the
+    rest that never yields, to the bit (the resting robot deviates by nothing)."""
+    duties = [
+        SwarmDuty(RestWhenSure(OnesThatBack(), yield_to_bumps=y), budget=0.2, common_seed=1)
+        for y in (True, False)
+    ]
+    for duty in duties:
+        duty.reset([np.random.default_rng(k) for k in range(2)])
+        _picture(duty, [[1.0, 0.0], [0.5, 0.5]])
+    for k in range(30):
+        step = bumps(True, True) if k in (1, 25) else bumps(False, False)
+        (v, w), (v_pinned, w_pinned) = (duty.commands(step, 0.05) for duty in duties)
+        assert v.tolist() == v_pinned.tolist()
+        assert w.tolist() == w_pinned.tolist()
+        if k == 1:
+            assert duties[0].deviation.reversing().tolist() == [False, True]
 
 
 def test_on_swarm_duty_a_sure_robot_follows_the_shared_command() -> None:
@@ -155,10 +227,12 @@ def test_a_robot_sure_for_probe_pictures_running_drives_one_interval(probe: int 
     assert moved == expected
 
 
-@pytest.mark.parametrize("seed", [14, 34])
+@pytest.mark.parametrize("seed", [14, 118])
 def test_a_robot_wrongly_sure_at_rest_is_corrected_by_its_probe(seed: int) -> None:
     """Ten robots at one per m², ``uniform`` at rest at 0.99 (a low threshold, so that a robot
-    is sometimes wrongly sure). On these seeds, found by a search over seeds 0 to 79, a robot
+    is sometimes wrongly sure). On these seeds, found by a search over seeds 0 to 239 (three
+    of them since the rest yields to bumps, 14, 118 and 183; seed 34 of the rest that held
+    still through bumps no longer is: the bumped robot moved and saw its mistake), a robot
     that rests without probing is still wrong at the last picture; with ``probe=3`` every robot
     is right or undecided there, and fewer decisions are wrong over the episode."""
     config = ten_at_one_per_m2(pictures=15)

@@ -81,6 +81,9 @@ class BackOff:
         """``(R,)`` the turn rate while reversing (rad/s)."""
         self.speed = np.zeros(0)
         """``(R,)`` the speed of the reverse drive (m/s)."""
+        self.latest = np.zeros(0)
+        """``(R,)`` the time left reversing when the latest :meth:`commands` set its commands
+        (s): those above 0 reversed at that step (the array itself, never written after)."""
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         """Start an episode with the excitation's generators (one per robot; drawn in turn with
@@ -89,6 +92,7 @@ class BackOff:
         self.backing = np.zeros(len(self.rngs))
         self.rate = np.zeros(len(self.rngs))
         self.speed = np.zeros(len(self.rngs))
+        self.latest = self.backing
 
     def turn_rates(self, hit: np.ndarray) -> list[float]:
         """The turn rates (rad/s) of the robots ``hit`` while they reverse: uniform in
@@ -126,6 +130,7 @@ class BackOff:
         else:
             hit = NOBODY
         self.start(hit)
+        self.latest = self.backing  # replaced below, never written in place
         v, w = own(hit)
         if fast and _plain(v, self.backing) and _plain(w, self.backing):
             out = np.empty((3, len(v)))

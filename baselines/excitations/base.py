@@ -4,13 +4,21 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from baselines.steps import BeliefView, Step
 
 NOBODY = np.zeros(0, dtype=np.int64)  # no robot: skips np.flatnonzero on the common path
+
+
+class Reverse(Protocol):
+    """What ``Excitation.reversing`` reads of a back-off
+    (:class:`~baselines.excitations.backoff.BackOff` is one)."""
+
+    latest: np.ndarray
+    """``(R,)`` the time left reversing (s) when the latest commands were set."""
 
 
 class Excitation:
@@ -40,7 +48,11 @@ class Excitation:
 
     Attributes:
         rngs: one generator per robot, set by :meth:`reset`.
+        backoff: the excitation's reverse out of bumps
+            (:class:`~baselines.excitations.backoff.BackOff`), if it has one; None otherwise.
     """
+
+    backoff: Reverse | None = None
 
     def __init__(self) -> None:
         self.rngs: list[np.random.Generator] = []
@@ -85,6 +97,14 @@ class Excitation:
             ``(v, w)``: ``(R,)`` forward speeds (m/s) and ``(R,)`` turn rates (rad/s).
         """
         raise NotImplementedError(f"{type(self).__name__} must implement commands()")
+
+    def reversing(self) -> np.ndarray:
+        """``(R,)`` bool: the robots whose latest :meth:`commands` reverse out of a bump (its
+        :attr:`backoff` under way); none without a back-off. A wrapper answers for the robots
+        it drives."""
+        if self.backoff is None:
+            return np.zeros(self.n, bool)
+        return np.asarray(self.backoff.latest > 0.0)
 
     def _draw(self, low: float, high: float, who: np.ndarray) -> np.ndarray:
         return np.array([self.rngs[i].uniform(low, high) for i in who])

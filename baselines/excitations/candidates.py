@@ -115,6 +115,8 @@ class HeldCommand(Excitation):
             default).
     """
 
+    backoff: BumpReflex  # narrows Excitation.backoff: this excitation always has one
+
     def __init__(self, settings: GreedySettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GreedySettings()

@@ -42,6 +42,8 @@ class DistinctMotion(Excitation):
             bump (the motion before issue 23's eighth round).
     """
 
+    backoff: BackOff  # narrows Excitation.backoff: this excitation always has one
+
     def __init__(self, settings: DistinctSettings | None = None, escape: bool = True) -> None:
         super().__init__()
         self.settings = settings or DistinctSettings()

@@ -120,6 +120,8 @@ class GapSeeking(Excitation):
         settings: speeds, turns, the thresholds in robot sizes (defaults above).
     """
 
+    backoff: Escape  # narrows Excitation.backoff: this excitation always has one
+
     def __init__(self, settings: GapSettings | None = None) -> None:
         super().__init__()
         self.settings = settings or GapSettings()

@@ -17,6 +17,16 @@ then tells it it was wrong. ``probe = 3`` costs about 1 % of the energy to 99 % 
 (most episodes reach 99 % before any robot has rested three pictures) and ended that robot's
 mistake after 6 decisions instead of 28 (``docs/agents.md``, *A rest that probes*).
 
+**A rest that yields.** In free motion a resting robot that is bumped reverses out of the bump
+as a moving one does (the wrapped excitation's :attr:`~baselines.excitations.Excitation.backoff`)
+instead of holding still through it. A robot that drives into a resting one that stays put is
+pressed against it, and its escape (reverse slowly while turning at the full rate) leaves it
+almost where it was: over that interval it cannot tell itself from any row that did not move,
+and resting rows do not. At free N = 300 this was the rest's whole cost in the tail
+(``docs/agents.md``, *Why the rest cost pictures at N = 300*). On swarm duty a resting robot
+keeps the shared command without deviating (the swarm moves together; a back-off there only
+spent energy).
+
 Why it helps (measured, ``docs/agents.md``): once a robot is sure, its own motion tells it
 nothing more, and a robot standing still is the easiest of all for the others to tell from
 themselves (their odometry says they moved). At one robot per m² it cuts the energy to 99 %
@@ -49,13 +59,22 @@ class RestWhenSure(Excitation):
         sure: a robot rests while its largest belief is at least this, in (0.5, 1].
         probe: a robot sure at this many pictures running drives ``inner``'s command for the
             interval after the last of them (an integer >= 2), or None to rest without probing.
+        yield_to_bumps: in free motion, a resting robot drives ``inner``'s reverse out of a bump
+            (``inner.reversing()``) instead of holding still; False: it holds still (the rest
+            before the fourteenth round).
 
     Raises:
         ValueError: ``sure`` is outside (0.5, 1] (with at most 0.5 two rows could both be "sure"),
             or ``probe`` is neither None nor an integer >= 2.
     """
 
-    def __init__(self, inner: Excitation, sure: float = SURE, probe: int | None = PROBE) -> None:
+    def __init__(
+        self,
+        inner: Excitation,
+        sure: float = SURE,
+        probe: int | None = PROBE,
+        yield_to_bumps: bool = True,
+    ) -> None:
         super().__init__()
         if not 0.5 < float(sure) <= 1.0:
             raise ValueError(f"sure must be in (0.5, 1], got {sure!r}")
@@ -66,14 +85,20 @@ class RestWhenSure(Excitation):
         self.inner = inner
         self.sure = float(sure)
         self.probe = None if probe is None else int(probe)
+        self.yield_to_bumps = bool(yield_to_bumps)
         self.resting = np.zeros(0, bool)
         self.sure_for = np.zeros(0, np.int64)
+        self.on_duty = False
+        self.held = np.zeros(0, bool)
+        """``(R,)`` the robots the latest :meth:`commands` held still."""
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
         self.inner.reset(rngs)
         self.resting = np.zeros(self.n, bool)
         self.sure_for = np.zeros(self.n, np.int64)
+        self.on_duty = False
+        self.held = np.zeros(self.n, bool)
 
     def on_observations(self, observations: Sequence[Mapping[str, Any]]) -> None:
         self.inner.on_observations(observations)
@@ -92,11 +117,18 @@ class RestWhenSure(Excitation):
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         self.inner.follow(v, w, budget)
+        self.on_duty = True
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v, w = self.inner.commands(step, dt)
         still = self.resting
+        if self.yield_to_bumps and not self.on_duty:
+            still = still & ~self.inner.reversing()
+        self.held = still
         return np.where(still, 0.0, v), np.where(still, 0.0, w)
+
+    def reversing(self) -> np.ndarray:
+        return self.inner.reversing() & ~self.held
 
 
 def at_rest(own: Excitation, sure: float | None) -> Excitation:
