@@ -113,21 +113,18 @@ class StillOnDuty(RestWhenSure):
     def __init__(self, inner: Excitation, sure: float, speed: float, turn: float) -> None:
         super().__init__(inner, sure)
         self.least = LeastTravel(speed, turn)
-        self.following = False
 
     def reset(self, rngs: Sequence[np.random.Generator]) -> None:
         super().reset(rngs)
         self.least.reset(rngs)
-        self.following = False
 
     def follow(self, v: np.ndarray, w: np.ndarray, budget: float) -> None:
         super().follow(v, w, budget)
         self.least.follow(v, w, budget)
-        self.following = budget != 0.0
 
     def commands(self, step: Step, dt: float) -> tuple[np.ndarray, np.ndarray]:
         v, w = super().commands(step, dt)
-        if not self.following:
+        if not self.on_duty:
             return v, w
         still_v, still_w = self.least.commands(step, dt)
         return np.where(self.resting, still_v, v), np.where(self.resting, still_w, w)

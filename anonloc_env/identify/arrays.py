@@ -3,7 +3,7 @@ robot (every robot's items in one run, robots in order)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -99,20 +99,23 @@ def _same_bits(a: np.ndarray, value: np.generic | np.ndarray) -> bool:
     return bool((np.ascontiguousarray(a).view(np.int64) == bits).all())
 
 
-def columns(count: int, kinds: Sequence[tuple[npt.DTypeLike, int]]) -> list[np.ndarray]:
+def _new_bytes(nbytes: int) -> np.ndarray:
+    """A new ``uint8`` array of ``nbytes`` (what :func:`columns` allocates by default)."""
+    return np.empty(nbytes, dtype=np.uint8)
+
+
+def columns(
+    count: int,
+    kinds: Sequence[tuple[npt.DTypeLike, int]],
+    take: Callable[[int], np.ndarray] = _new_bytes,
+) -> list[np.ndarray]:
     """``count``-long arrays, one per ``(dtype, width)`` of ``kinds`` (``width`` 0: ``(count,)``,
-    else ``(count, width)``), each contiguous, all views of one allocation: numpy backs an
+    else ``(count, width)``), each contiguous, all views of one allocation, ``take(nbytes)``
+    (``uint8``; a new array by default, a pool's block: ``Pool.columns``): numpy backs an
     allocation of 4 MiB or more with huge pages where the system allows, and a fresh array of
     10^5 tracks costs one page fault per 4 KiB otherwise (several ms of a step at N=1000)."""
     sizes = [count * max(width, 1) * np.dtype(kind).itemsize for kind, width in kinds]
-    return lay_out(np.empty(sum(sizes), dtype=np.uint8), count, kinds, sizes)
-
-
-def lay_out(
-    block: np.ndarray, count: int, kinds: Sequence[tuple[npt.DTypeLike, int]], sizes: list[int]
-) -> list[np.ndarray]:
-    """:func:`columns`' arrays as views of ``block`` (``uint8``, ``sum(sizes)`` bytes), one
-    after the other, ``sizes`` bytes each."""
+    block = take(sum(sizes))
     out, at = [], 0
     for (kind, width), size in zip(kinds, sizes, strict=True):
         view = block[at : at + size].view(kind)

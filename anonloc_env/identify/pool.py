@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from anonloc_env.identify.arrays import lay_out
+from anonloc_env.identify import arrays
 
 #: Blocks smaller than this are left to numpy's allocator: glibc's heap serves them (128 KiB is
 #: its starting ``M_MMAP_THRESHOLD``, from which it maps fresh memory).
@@ -126,8 +126,7 @@ class Pool:
 
     def columns(self, count: int, kinds: Sequence[tuple[npt.DTypeLike, int]]) -> list[np.ndarray]:
         """:func:`anonloc_env.identify.arrays.columns` in a block of the pool."""
-        sizes = [count * max(width, 1) * np.dtype(kind).itemsize for kind, width in kinds]
-        return lay_out(self.take(sum(sizes)), count, kinds, sizes)
+        return arrays.columns(count, kinds, self.take)
 
     def array(self, shape: int | tuple[int, ...], dtype: npt.DTypeLike = np.float64) -> np.ndarray:
         """``np.empty(shape, dtype)`` (C order) in a block of the pool: its values are left as

@@ -104,7 +104,7 @@ class Excitation:
         it drives."""
         if self.backoff is None:
             return np.zeros(self.n, bool)
-        return np.asarray(self.backoff.latest > 0.0)
+        return self.backoff.latest > 0.0
 
     def _draw(self, low: float, high: float, who: np.ndarray) -> np.ndarray:
         return np.array([self.rngs[i].uniform(low, high) for i in who])
