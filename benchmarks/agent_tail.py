@@ -36,6 +36,8 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
 - the suffix ``-pinned`` (after ``agent``, ``agent-nodecided``, ``agent-size-B``,
   ``agent-reach-B`` or ``uniform-rest``): resting robots hold still through bumps, the rest
   before the fourteenth round (``RestWhenSure(yield_to_bumps=False)``);
+- the suffix ``-noescape`` (after any other): pressed robots back off as after a first bump
+  (0.3 m/s) instead of escaping at 0.08 m/s (fifteenth round);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -195,12 +197,29 @@ def edited_chooser(base: str, rest: float | None, pinned: bool) -> Callable[[], 
     return lambda: RestWhenSure(LinearChooser(vector, spec), sure, yield_to_bumps=not pinned)
 
 
+def without_escape(excitation: Excitation) -> Excitation:
+    """``excitation`` (or the one its rest wraps) whose pressed robots back off as after a first
+    bump (0.3 m/s for 0.5 to 1 s) instead of escaping slowly (``GreedySettings.escape = None``,
+    :class:`baselines.excitations.reflex.BumpReflex`), before its first reset."""
+    from baselines.excitations.reflex import BumpReflex
+
+    held = excitation.inner if isinstance(excitation, RestWhenSure) else excitation
+    settings = getattr(held, "settings", None)
+    if not isinstance(held.backoff, BumpReflex) or settings is None:
+        raise ValueError(f"-noescape needs a candidate excitation, got {type(held).__name__}")
+    held.backoff = BumpReflex(settings.back, None)
+    return excitation
+
+
 def variant(name: str) -> Callable[[], Excitation]:
     """How to build the excitation a variant name says (see the module).
 
     Raises:
         ValueError: a name this script does not know.
     """
+    if name.endswith("-noescape"):
+        made = variant(name.removesuffix("-noescape"))
+        return lambda: without_escape(made())
     rest: float | None = None if name.endswith("-norest") else REST
     pinned = name.endswith("-pinned")
     base = name.removesuffix("-norest").removesuffix("-pinned")

@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from baselines.excitations.base import Still
+from baselines.excitations.rest import RestWhenSure
 from baselines.runner import EpisodeResult, PictureRecord
-from benchmarks.agent_tail import not_right, variant
+from benchmarks.agent_tail import not_right, variant, without_escape
 
 
 def _record(robot: int, picture: int, correct: bool, localizer: str = "") -> PictureRecord:
@@ -139,3 +141,12 @@ def test_an_edit_of_an_unknown_term_is_refused_by_name() -> None:
     pytest.importorskip("stable_baselines3")
     with pytest.raises(ValueError, match="'reach\\*sometimes'"):
         variant("agent+reach*sometimes=1")
+
+
+def test_noescape_backs_pressed_robots_off_as_after_a_first_bump() -> None:
+    made = variant("uniform-rest-noescape")()
+    assert isinstance(made, RestWhenSure)
+    assert made.inner.backoff.escape is None  # the plain back-off, also for pressed robots
+    assert variant("uniform")().backoff.escape is not None  # the default escapes slowly
+    with pytest.raises(ValueError, match="candidate excitation"):
+        without_escape(RestWhenSure(Still(), 0.9999))
