@@ -246,12 +246,16 @@ class Registration:
         error = 0.0
         scales: list[float | None] = [None, None, None]
         near = Near(guess.target, self.prior.reach)
+        # Before the first fit the rows are off by the camera's change, in every pair alike.
+        doubt = first_error(self.prior)
         for round_ in range(MATCH_ROUNDS):
-            matched = self._match(apply(transform, self.prior.centre, rows[:, :2]), guess, near)
+            moved = apply(transform, self.prior.centre, rows[:, :2])
+            matched = self._match(moved, guess, near, doubt)
             if round_ and same_pairs(matched, pairs):  # the matches hold: the fit is done
                 break
             pairs = matched
             transform, error, scales = self._fit(rows[:, :2], pairs, guess, transform)
+            doubt = 0.0
         return transform, pairs, error, scales
 
     def _line(self, guess: Guess) -> Guess:
@@ -318,17 +322,22 @@ class Registration:
         length = float(np.hypot(*shift))
         return shift * (limit / length) if length > limit else shift
 
-    def _match(self, moved: np.ndarray, guess: Guess, near: Near) -> tuple[np.ndarray, np.ndarray]:
+    def _match(
+        self, moved: np.ndarray, guess: Guess, near: Near, doubt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs ``(row, previous row)`` between the rows ``moved`` (through the current
-        transform) and the previous rows' predicted places (``near``'s, within the reach): the
-        one-to-one pairing of least total squared length in the guesses' spreads, leaving a
-        row or a place unpaired costing half of :data:`MATCH_GATE` squared (so no pair is
-        longer than it)."""
+        transform, ``doubt`` off per coordinate: the camera's change before a fit, the last
+        fit's stated error after) and the previous rows' predicted places (``near``'s, within
+        the reach): the one-to-one pairing of least total squared length in the guesses'
+        spreads widened by the doubt, leaving a row or a place unpaired costing half of
+        :data:`MATCH_GATE` squared (so no pair is longer than it)."""
         i, j = near.pairs(moved)
         if len(i) == 0:
             return i, j
         offset = turned((guess.target[j] - moved[i]).reshape(-1), *guess.axis[j].T)
-        score = mahalanobis(offset.reshape(-1, 2), guess.sub(j))
+        sub = guess.sub(j)
+        widened = sub._replace(sigma=np.hypot(sub.sigma, doubt), along=np.hypot(sub.along, doubt))
+        score = mahalanobis(offset.reshape(-1, 2), widened)
         unpaired = 0.5 * MATCH_GATE**2
         taken = least_cost_pairs(i, j, score**2, len(moved), len(guess.target), unpaired)
         return i[taken], j[taken]
