@@ -505,32 +505,36 @@ def integrate(
     normals: np.ndarray,
     noise: float,
     noisy: bool,
-    step_ds: np.ndarray,
-    step_dth: np.ndarray,
+    sums: np.ndarray,
+    stats: bool,
 ) -> None:
     """``Odometry.integrate``'s dead reckoning: ``odo`` ``(N, 3)`` own-frame ``(x, y, phi)``
     advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (if ``noisy``, times the
     noise factors ``1 + noise * z`` of the standard normals ``normals`` ``(2, N)``: distance,
-    then turn), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    then turn). With ``stats``, the step's absolute distance ``ds`` and turn ``dth`` (summed over
+    the sub-steps) go into ``IntervalStatistics.sums`` ``(4, N)`` as ``add_step`` adds them:
+    ``path += ds``, ``sum_ds2 += ds * ds``, ``sum_dth2 += dth * dth``."""
     n = odo.shape[0]
-    distance_factor = np.empty(n)
-    turn_factor = np.empty(n)
-    if noisy:
-        for k in range(n):
-            distance_factor[k] = 1.0 + noise * normals[0, k]
-            turn_factor[k] = 1.0 + noise * normals[1, k]
-    for s in range(forward.shape[0]):
-        for k in range(n):
+    for k in range(n):
+        distance_factor = 1.0 + noise * normals[0, k] if noisy else 1.0
+        turn_factor = 1.0 + noise * normals[1, k] if noisy else 1.0
+        step_ds = 0.0
+        step_dth = 0.0
+        for s in range(forward.shape[0]):
             ds, dth = forward[s, k], turned[s, k]
             if noisy:
-                ds = ds * distance_factor[k]
-                dth = dth * turn_factor[k]
-            step_ds[k] += abs(ds)
-            step_dth[k] += dth
+                ds = ds * distance_factor
+                dth = dth * turn_factor
+            step_ds += abs(ds)
+            step_dth += dth
             phi = odo[k, 2]
             odo[k, 0] += math.cos(phi) * ds
             odo[k, 1] += math.sin(phi) * ds
             odo[k, 2] = phi + dth
+        if stats:
+            sums[0, k] += step_ds
+            sums[1, k] += step_ds * step_ds
+            sums[2, k] += step_dth * step_dth
 
 
 @jit

@@ -193,9 +193,13 @@ def test_the_robots_interval_statistics_are_numpys(request: pytest.FixtureReques
         np.testing.assert_array_equal(x, y)
 
 
+@pytest.mark.parametrize("statistics", [True, False])
 @pytest.mark.parametrize("noise", [0.0, 0.05])
-def test_odometry_integrates_the_same(noise: float, request: pytest.FixtureRequest) -> None:
-    """Dead reckoning of 20 steps of wheel travel (3 sub-steps, with and without noise)."""
+def test_odometry_integrates_the_same(
+    noise: float, statistics: bool, request: pytest.FixtureRequest
+) -> None:
+    """Dead reckoning of 20 steps of wheel travel (3 sub-steps, with and without noise, with
+    and without the interval's statistics, which the kernel adds up in the same call)."""
     rng = np.random.default_rng(3)
     steps = [
         WheelTravel(rng.uniform(0, 0.01, (3, 9)), rng.normal(0, 0.05, (3, 9)), rng.random(9) < 0.3)
@@ -205,12 +209,21 @@ def test_odometry_integrates_the_same(noise: float, request: pytest.FixtureReque
     for use_kernels in (True, False):
         if not use_kernels:
             request.getfixturevalue("numpy_only")
-        odometry = Odometry(9, noise, v_max=0.5, dt=0.1)
+        odometry = Odometry(9, noise, v_max=0.5, dt=0.1, statistics=statistics)
         draws = np.random.default_rng(4)
         for motion in steps:
             odometry.integrate(motion, draws, np.full(9, 0.3))
         interval = odometry.mark_picture()
-        results.append((interval.d, interval.dphi, interval.path, interval.sum_ds2))
+        results.append(
+            (interval.d, interval.dphi, interval.path, interval.sum_ds2, interval.sum_dth2)
+            + ((interval.push, interval.push_sum) if statistics else ())
+        )
+    if not statistics:  # the straight distance, nothing summed
+        np.testing.assert_array_equal(results[0][2], np.hypot(*results[0][0].T))
+        assert not results[0][3].any()
+    else:
+        assert results[0][3].all()  # every robot moved
+        assert results[0][4].all()  # and turned
     for x, y in zip(*results, strict=True):
         np.testing.assert_array_equal(x, y)
 
