@@ -569,6 +569,52 @@ def pairs_within(
 
 
 @jit
+def pairs_within_each(
+    a: np.ndarray, b: np.ndarray, radius: np.ndarray, level: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``neighbours.pairs_within_each`` (finite points and radii) in one call: the points of
+    ``a`` grouped by ``level`` (numpy's ``floor(log2(radius))``), each group searched as
+    :func:`pairs_within` searches it (its widest radius ``r``, its cells from the origin of its
+    points and ``b`` less ``r``), each pair kept where its distance is within its own radius
+    too. In the order ``i`` then ``j``, as the grouped search sorts them."""
+    n, m = a.shape[0], b.shape[0]
+    widest = np.empty(n)
+    x0 = np.empty(n)
+    y0 = np.empty(n)
+    bx, by = b[:, 0].min(), b[:, 1].min()
+    for i in range(n):  # each group's radius and origin, per point (groups are small)
+        r, ax, ay = radius[i], a[i, 0], a[i, 1]
+        for k in range(n):
+            if level[k] == level[i]:
+                r = max(r, radius[k])
+                ax = min(ax, a[k, 0])
+                ay = min(ay, a[k, 1])
+        widest[i] = r
+        x0[i] = min(ax, bx) - r
+        y0[i] = min(ay, by) - r
+    found_i = np.empty(n * m, dtype=np.int64)
+    found_j = np.empty(n * m, dtype=np.int64)
+    found_d = np.empty(n * m)
+    count = 0
+    for i in range(n):
+        r = widest[i]
+        if not r > 0.0:  # pairs_within finds nothing
+            continue
+        cx = np.int64(math.floor((a[i, 0] - x0[i]) / r))
+        cy = np.int64(math.floor((a[i, 1] - y0[i]) / r))
+        for j in range(m):
+            if abs(np.int64(math.floor((b[j, 0] - x0[i]) / r)) - cx) > 1:
+                continue
+            if abs(np.int64(math.floor((b[j, 1] - y0[i]) / r)) - cy) > 1:
+                continue
+            dist = math.hypot(b[j, 0] - a[i, 0], b[j, 1] - a[i, 1])
+            if dist <= r and dist <= radius[i]:
+                found_i[count], found_j[count], found_d[count] = i, j, dist
+                count += 1
+    return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
+
+
+@jit
 def forward_pairs(xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """``separation.pairs_within_self``'s grid search for points ``xy`` ``(n, 2)``, ``n >= 2``:
     the same cells, keys, stable order and forward ranges, each listed pair ``(i, j)`` (``i <

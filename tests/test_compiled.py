@@ -13,7 +13,7 @@ import pytest
 from anonloc_env import compiled, make_config
 from anonloc_env.config import RobotConfig
 from anonloc_env.env import AnonLocEnv
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.neighbours import pairs_within, pairs_within_each
 from anonloc_env.odometry import IntervalStatistics, Odometry
 from anonloc_env.rewards import EnergyCost
 from anonloc_env.separation import Separator, pairs_within_self
@@ -138,6 +138,34 @@ def test_the_neighbour_search_finds_the_same_pairs(
     fast = _pairs(a, b, radius)
     request.getfixturevalue("numpy_only")
     plain = pairs_within(a, b, radius)
+    assert len(plain[0]) > 0
+    for x, y in zip(fast, plain, strict=True):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_search_by_each_points_radius_finds_the_same_pairs(
+    seed: int, request: pytest.FixtureRequest
+) -> None:
+    """``pairs_within_each`` by its kernel and by numpy's grouped grid search: the same pairs,
+    order and distances. Radii over three levels (seeds 0 to 2 on a grid: distances of exactly a
+    radius, points on cell borders, duplicates; seed 3 with radii of 0 and below, which find
+    nothing), a few hundred pairs at most, where the kernel takes them."""
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(1, 60)), int(rng.integers(1, 60))
+    if seed < 3:
+        a, b = rng.integers(0, 8, (n, 2)).astype(float), rng.integers(0, 8, (m, 2)).astype(float)
+        radius = rng.choice([0.5, 1.0, 2.0, 3.0], n)
+    else:
+        a, b = rng.uniform(0, 10, (n, 2)), rng.uniform(0, 10, (m, 2))
+        radius = rng.uniform(0.2, 3.0, n) * rng.choice([1.0, 2.0, 4.0], n)
+    if seed == 3:
+        radius[: n // 2] = rng.choice([0.0, -1.0], n // 2)
+    assert compiled.mode() is not None
+    fast = pairs_within_each(a, b, radius)
+    request.getfixturevalue("numpy_only")
+    plain = pairs_within_each(a, b, radius)
     assert len(plain[0]) > 0
     for x, y in zip(fast, plain, strict=True):
         assert x.dtype == y.dtype
