@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -116,11 +117,6 @@ def numpy_only(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compiled, "_MODE", [None])
 
 
-def _pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarray, ...]:
-    assert compiled.mode() is not None
-    return pairs_within(a, b, radius)
-
-
 @pytest.mark.parametrize("seed", range(6))
 def test_the_neighbour_search_finds_the_same_pairs(
     seed: int, request: pytest.FixtureRequest
@@ -135,9 +131,22 @@ def test_the_neighbour_search_finds_the_same_pairs(
     else:
         a, b = rng.uniform(0, 10, (n, 2)), rng.uniform(0, 10, (m, 2))
         radius = float(rng.uniform(0.1, 3.0))
-    fast = _pairs(a, b, radius)
+    _same_pairs(pairs_within, a, b, radius, request)
+
+
+def _same_pairs(
+    search: Callable[..., tuple[np.ndarray, ...]],
+    a: np.ndarray,
+    b: np.ndarray,
+    radius: float | np.ndarray,
+    request: pytest.FixtureRequest,
+) -> None:
+    """``search(a, b, radius)`` by its kernel, then by numpy: the same pairs (at least one), in
+    the same order, with the same distances and dtypes."""
+    assert compiled.mode() is not None
+    fast = search(a, b, radius)
     request.getfixturevalue("numpy_only")
-    plain = pairs_within(a, b, radius)
+    plain = search(a, b, radius)
     assert len(plain[0]) > 0
     for x, y in zip(fast, plain, strict=True):
         assert x.dtype == y.dtype
@@ -151,7 +160,7 @@ def test_the_search_by_each_points_radius_finds_the_same_pairs(
     """``pairs_within_each`` by its kernel and by numpy's grouped grid search: the same pairs,
     order and distances. Radii over three levels (seeds 0 to 2 on a grid: distances of exactly a
     radius, points on cell borders, duplicates; seed 3 with radii of 0 and below, which find
-    nothing), a few hundred pairs at most, where the kernel takes them."""
+    nothing), up to 59 x 59 points: within the kernel's reach."""
     rng = np.random.default_rng(seed)
     n, m = int(rng.integers(1, 60)), int(rng.integers(1, 60))
     if seed < 3:
@@ -162,14 +171,7 @@ def test_the_search_by_each_points_radius_finds_the_same_pairs(
         radius = rng.uniform(0.2, 3.0, n) * rng.choice([1.0, 2.0, 4.0], n)
     if seed == 3:
         radius[: n // 2] = rng.choice([0.0, -1.0], n // 2)
-    assert compiled.mode() is not None
-    fast = pairs_within_each(a, b, radius)
-    request.getfixturevalue("numpy_only")
-    plain = pairs_within_each(a, b, radius)
-    assert len(plain[0]) > 0
-    for x, y in zip(fast, plain, strict=True):
-        assert x.dtype == y.dtype
-        np.testing.assert_array_equal(x, y)
+    _same_pairs(pairs_within_each, a, b, radius, request)
 
 
 @pytest.mark.parametrize("seed", range(6))
