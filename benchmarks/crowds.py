@@ -503,14 +503,37 @@ def write_json(path: str, data: Any) -> None:
     os.replace(f.name, path)
 
 
-def record(path: str, density: float, n: int, name: str, seed: int, pictures: int) -> None:
-    """Write one episode's pictures, motion and true rows to ``path`` (``.npz``)."""
-    env = anonloc_env.AnonLocEnv(scenario(n, pictures, density), reward_fn=anonloc_env.EnergyCost())
+def cluttered(config: EnvConfig, p_miss: float = 0.0, false_positives: float = 0.0) -> EnvConfig:
+    """``config`` with a camera that misses each robot with probability ``p_miss`` and sees
+    ``false_positives`` false detections per picture on average (both 0: ``config`` itself)."""
+    if p_miss == 0.0 and false_positives == 0.0:
+        return config
+    camera = dataclasses.replace(config.camera, p_miss=p_miss, false_positives=false_positives)
+    return dataclasses.replace(config, camera=camera)
+
+
+def record(
+    path: str,
+    density: float,
+    n: int,
+    name: str,
+    seed: int,
+    pictures: int,
+    p_miss: float = 0.0,
+    false_positives: float = 0.0,
+) -> None:
+    """Write one episode's pictures, motion and true rows to ``path`` (``.npz``), on a camera
+    with misses and false positives if given (see ``cluttered``)."""
+    config = cluttered(scenario(n, pictures, density), p_miss, false_positives)
+    env = anonloc_env.AnonLocEnv(config, reward_fn=anonloc_env.EnergyCost())
     result = play(env, name, seed, pictures).result
     arrays: dict[str, np.ndarray] = {
-        "pictures": np.stack(result.pictures),
+        "pictures": np.concatenate(result.pictures),  # each picture's rows, one after the other
+        "counts": np.array([len(rows) for rows in result.pictures]),
         "true_rows": np.stack(result.true_rows),
         "density": np.array(density),
+        "p_miss": np.array(p_miss),
+        "false_positives": np.array(false_positives),
     }
     for key in ("d", "dphi", "path", "sum_ds2", "sum_dth2", "push", "push_sum"):
         values = [getattr(iv, key) for iv in result.intervals]
@@ -562,11 +585,16 @@ def open_space(
 
 
 def load_recorded(path: str) -> tuple[EnvConfig, EpisodeResult]:
-    """The scenario and episode :func:`record` wrote to ``path`` (pictures, motion, true rows)."""
+    """The scenario and episode :func:`record` wrote to ``path`` (pictures, motion, true rows;
+    the camera's misses and false positives where it wrote them)."""
     with np.load(path) as z:
         arrays = {key: z[key] for key in z.files}
-    pictures, true_rows = arrays["pictures"], arrays["true_rows"]
-    n = pictures.shape[1]
+    true_rows = arrays["true_rows"]
+    n = true_rows.shape[1]
+    if "counts" in arrays:  # pictures of any size, one after the other
+        pictures = list(np.split(arrays["pictures"], np.cumsum(arrays["counts"])[:-1]))
+    else:  # recorded before there were misses: one (N, 3) picture each
+        pictures = list(arrays["pictures"])
     intervals = []
     for k in range(len(pictures) - 1):
         pushed = bool(arrays["push"][k].any())
@@ -581,8 +609,10 @@ def load_recorded(path: str) -> tuple[EnvConfig, EpisodeResult]:
                 push_sum=arrays["push_sum"][k] if pushed else None,
             )
         )
-    result = EpisodeResult(0, n, [], list(pictures), list(true_rows), intervals)
-    return scenario(n, PICTURES, float(arrays["density"])), result
+    result = EpisodeResult(0, n, [], pictures, list(true_rows), intervals)
+    config = scenario(n, PICTURES, float(arrays["density"]))
+    clutter = (float(arrays.get("p_miss", 0.0)), float(arrays.get("false_positives", 0.0)))
+    return cluttered(config, *clutter), result
 
 
 def _agent(path: str | None) -> dict[str, Callable[[], Excitation]]:
@@ -650,6 +680,8 @@ def main(argv: list[str] | None = None) -> None:
     c.add_argument("--excitation", default="distinct")
     c.add_argument("--seed", type=int, default=500)
     c.add_argument("--pictures", type=int, default=12)
+    c.add_argument("--p-miss", type=float, default=0.0, help="the camera's miss probability")
+    c.add_argument("--false-positives", type=float, default=0.0, help="per picture, on average")
     args = parser.parse_args(argv)
     if args.command == "diagnose":
         seeds = range(*args.seeds)
@@ -704,7 +736,8 @@ def main(argv: list[str] | None = None) -> None:
         with open(args.results) as f:
             plot(json.load(f), args.out)
     else:
-        record(args.out, args.density, args.robots, args.excitation, args.seed, args.pictures)
+        episode = (args.density, args.robots, args.excitation, args.seed, args.pictures)
+        record(args.out, *episode, args.p_miss, args.false_positives)
 
 
 if __name__ == "__main__":

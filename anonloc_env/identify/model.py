@@ -122,6 +122,10 @@ class SensorModel:
             (``anchors``) and a row another robot is sure of is taken from the rest
             (``out_of_view.claimed_elsewhere``). False: each robot's belief depends on the
             pictures and its own motion only.
+        density: the robots per m^2 of the arena, as the config states them (>= 0; 0, the
+            default: not stated). The identifier does not read it; ``bayes``'s decisions do
+            (``baselines.decisions.in_cluttered_crowd``: pinned robots in a crowd with misses or
+            false positives). ``from_config`` sets it.
     """
 
     scale: float | None
@@ -150,6 +154,7 @@ class SensorModel:
     registration: RegistrationPrior | None = None
     view: View | None = None
     pooled_motion: bool = False
+    density: float = 0.0
 
     def __post_init__(self) -> None:
         if self.scale is not None:
@@ -185,6 +190,7 @@ class SensorModel:
         if not isinstance(self.filter_position, bool | np.bool_):
             raise ValueError(f"filter_position must be a bool, got {self.filter_position!r}")
         check_number("crowd_noise", self.crowd_noise, 1.0)
+        check_number("density", self.density, 0.0)
 
     @classmethod
     def from_config(cls, config: EnvConfig, *, scale_known: bool = True) -> SensorModel:
@@ -260,6 +266,7 @@ def _from_config(config: EnvConfig, scale_known: bool) -> SensorModel:
         registration=registration,
         view=_view(config, registration),
         pooled_motion=registration is not None and config.camera.pooled_motion,
+        density=config.n_robots / area,
     )
 
 
