@@ -52,9 +52,13 @@ neither is the default):
 ``Decisions.crowd`` is ``bayes``'s default: the hold with the release, the pressed keep and the
 pinned robots' guard for every robot in a crowd (see ``in_crowd``: above one robot per m^2, clean
 pictures, a fixed camera, where it was measured); in a crowd with misses or false positives
-(``in_cluttered_crowd``) the pinned robots' guard alone (issue 23, fifteenth round: on 24 tuning
-episodes at 4 per m^2, N = 50, 8 % misses and 2 false positives, pinned robots' top beliefs in
-0.99 to 0.999 were right only 93.9 % of the time); in open space where the identifier models
+(``in_cluttered_crowd``) the pinned robots' guard without the hold, and exclusive rows: robots
+that would decide the same row at a picture are all undecided there (issue 23, fifteenth round:
+on 24 tuning episodes at 4 per m^2, N = 50, 8 % misses and 2 false positives, pinned robots' top
+beliefs in 0.99 to 0.999 were right only 93.9 % of the time, and 92 of the 120 wrong decisions
+left after the guard shared their row with another decided robot: with misses or false
+positives each robot's belief is computed alone, and several pinned robots take the row of one
+still robot at once); in open space where the identifier models
 contacts (clean pictures, a fixed camera: ``in_contact``) the same hold for robots touched in the
 newest ``CONTACT_WINDOW`` intervals only; elsewhere (misses or false positives at one robot per
 m^2 or less, a moving camera) the plain threshold, bit for bit (``docs/crowds.md``).
