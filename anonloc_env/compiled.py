@@ -505,32 +505,36 @@ def integrate(
     normals: np.ndarray,
     noise: float,
     noisy: bool,
-    step_ds: np.ndarray,
-    step_dth: np.ndarray,
+    sums: np.ndarray,
+    stats: bool,
 ) -> None:
     """``Odometry.integrate``'s dead reckoning: ``odo`` ``(N, 3)`` own-frame ``(x, y, phi)``
     advanced by each sub-step's ``forward`` and ``turned`` ``(S, N)`` (if ``noisy``, times the
     noise factors ``1 + noise * z`` of the standard normals ``normals`` ``(2, N)``: distance,
-    then turn), the step's absolute distance and turn added into ``step_ds``/``step_dth``."""
+    then turn). With ``stats``, the step's absolute distance ``ds`` and turn ``dth`` (summed over
+    the sub-steps) go into ``IntervalStatistics.sums`` ``(4, N)`` as ``add_step`` adds them:
+    ``path += ds``, ``sum_ds2 += ds * ds``, ``sum_dth2 += dth * dth``."""
     n = odo.shape[0]
-    distance_factor = np.empty(n)
-    turn_factor = np.empty(n)
-    if noisy:
-        for k in range(n):
-            distance_factor[k] = 1.0 + noise * normals[0, k]
-            turn_factor[k] = 1.0 + noise * normals[1, k]
-    for s in range(forward.shape[0]):
-        for k in range(n):
+    for k in range(n):
+        distance_factor = 1.0 + noise * normals[0, k] if noisy else 1.0
+        turn_factor = 1.0 + noise * normals[1, k] if noisy else 1.0
+        step_ds = 0.0
+        step_dth = 0.0
+        for s in range(forward.shape[0]):
             ds, dth = forward[s, k], turned[s, k]
             if noisy:
-                ds = ds * distance_factor[k]
-                dth = dth * turn_factor[k]
-            step_ds[k] += abs(ds)
-            step_dth[k] += dth
+                ds = ds * distance_factor
+                dth = dth * turn_factor
+            step_ds += abs(ds)
+            step_dth += dth
             phi = odo[k, 2]
             odo[k, 0] += math.cos(phi) * ds
             odo[k, 1] += math.sin(phi) * ds
             odo[k, 2] = phi + dth
+        if stats:
+            sums[0, k] += step_ds
+            sums[1, k] += step_ds * step_ds
+            sums[2, k] += step_dth * step_dth
 
 
 @jit
@@ -559,6 +563,52 @@ def pairs_within(
                 continue
             dist = math.hypot(b[j, 0] - a[i, 0], b[j, 1] - a[i, 1])
             if dist <= radius:
+                found_i[count], found_j[count], found_d[count] = i, j, dist
+                count += 1
+    return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()
+
+
+@jit
+def pairs_within_each(
+    a: np.ndarray, b: np.ndarray, radius: np.ndarray, level: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``neighbours.pairs_within_each`` (finite points and radii) in one call: the points of
+    ``a`` grouped by ``level`` (numpy's ``floor(log2(radius))``), each group searched as
+    :func:`pairs_within` searches it (its widest radius ``r``, its cells from the origin of its
+    points and ``b`` less ``r``), each pair kept where its distance is within its own radius
+    too. In the order ``i`` then ``j``, as the grouped search sorts them."""
+    n, m = a.shape[0], b.shape[0]
+    widest = np.empty(n)
+    x0 = np.empty(n)
+    y0 = np.empty(n)
+    bx, by = b[:, 0].min(), b[:, 1].min()
+    for i in range(n):  # each group's radius and origin, per point (groups are small)
+        r, ax, ay = radius[i], a[i, 0], a[i, 1]
+        for k in range(n):
+            if level[k] == level[i]:
+                r = max(r, radius[k])
+                ax = min(ax, a[k, 0])
+                ay = min(ay, a[k, 1])
+        widest[i] = r
+        x0[i] = min(ax, bx) - r
+        y0[i] = min(ay, by) - r
+    found_i = np.empty(n * m, dtype=np.int64)
+    found_j = np.empty(n * m, dtype=np.int64)
+    found_d = np.empty(n * m)
+    count = 0
+    for i in range(n):
+        r = widest[i]
+        if not r > 0.0:  # pairs_within finds nothing
+            continue
+        cx = np.int64(math.floor((a[i, 0] - x0[i]) / r))
+        cy = np.int64(math.floor((a[i, 1] - y0[i]) / r))
+        for j in range(m):
+            if abs(np.int64(math.floor((b[j, 0] - x0[i]) / r)) - cx) > 1:
+                continue
+            if abs(np.int64(math.floor((b[j, 1] - y0[i]) / r)) - cy) > 1:
+                continue
+            dist = math.hypot(b[j, 0] - a[i, 0], b[j, 1] - a[i, 1])
+            if dist <= r and dist <= radius[i]:
                 found_i[count], found_j[count], found_d[count] = i, j, dist
                 count += 1
     return found_i[:count].copy(), found_j[:count].copy(), found_d[:count].copy()

@@ -80,12 +80,22 @@ def pairs_within_each(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every pair ``(i, j)`` with ``|a[i] - b[j]| <= radius[i]``: :func:`pairs_within` for the
     points of ``a`` grouped by radius (within a factor 2), so that a few wide ones do not widen
-    the search of all. Sorted by ``i`` then ``j``, as :func:`pairs_within`."""
+    the search of all. Sorted by ``i`` then ``j``, as :func:`pairs_within`. Up to
+    :data:`_LOOK_AT_ALL` pairs of finite points and radii, one compiled call
+    (``compiled.pairs_within_each``: the same groups, cells and arrays)."""
     radius = np.asarray(radius, dtype=np.float64)
-    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
     if len(a) == 0 or len(b) == 0:
-        return empty
+        return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
     level = np.floor(np.log2(np.maximum(radius, 1e-9))).astype(np.int64)
+    if (
+        len(a) * len(b) <= _LOOK_AT_ALL
+        and compiled.mode() is not None
+        and np.isfinite(radius).all()
+        and np.isfinite(a).all()
+        and np.isfinite(b).all()
+    ):  # the same arrays in one call
+        a, b = (np.ascontiguousarray(x, dtype=np.float64) for x in (a, b))
+        return compiled.pairs_within_each(a, b, np.ascontiguousarray(radius), level)
     found = []
     for lvl in np.sort(np.asarray(list(set(level.tolist())))).tolist():
         members = np.flatnonzero(level == lvl)

@@ -139,9 +139,11 @@ class IntervalStatistics:
 
     def clear(self) -> None:
         """Start a new interval."""
-        # One array, so that the compiled step (compiled.interval_step) takes it in one piece.
-        self._sums = np.zeros((4, self.n))
-        self.path, self.sum_ds2, self.sum_dth2, self.push = self._sums
+        # One array, so that the compiled steps (compiled.interval_step, compiled.integrate)
+        # take it in one piece.
+        self.sums = np.zeros((4, self.n))
+        """``(4, N)`` the rows ``path``, ``sum_ds2``, ``sum_dth2`` and ``push`` (views of it)."""
+        self.path, self.sum_ds2, self.sum_dth2, self.push = self.sums
         self.push_sum = np.zeros((self.n, 2))
         self.contacts = False
 
@@ -159,7 +161,7 @@ class IntervalStatistics:
             and compiled.mode() is not None
         ):  # the same floats, one call
             bounds = np.array([self.v_max, self.dt])
-            sums, push_sum = self._sums, self.push_sum
+            sums, push_sum = self.sums, self.push_sum
             if compiled.interval_step(before, now, bumper, speed, bounds, sums, push_sum):
                 self.contacts = True
             return
@@ -235,14 +237,12 @@ class Odometry:
             self.stats.add_contacts(who, speed[who], self.since_picture[who, 2])
         noisy = self.noise > 0.0
         odo = self.since_picture
-        if compiled.mode() is not None:  # the same floats in one call
+        if compiled.mode() is not None:  # the same floats in one call, add_step's included
             normals = rng.standard_normal((2, self.n)) if noisy else _NO_NORMALS
-            step_ds, step_dth = np.zeros((2, self.n))
+            sums = self.stats.sums
             compiled.integrate(
-                odo, motion.forward, motion.turned, normals, self.noise, noisy, step_ds, step_dth
+                odo, motion.forward, motion.turned, normals, self.noise, noisy, sums, stats
             )
-            if stats:
-                self.stats.add_step(step_ds, step_dth)
             return
         if noisy:
             distance_factor, turn_factor = 1.0 + self.noise * rng.standard_normal((2, self.n))

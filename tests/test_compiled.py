@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ import pytest
 from anonloc_env import compiled, make_config
 from anonloc_env.config import RobotConfig
 from anonloc_env.env import AnonLocEnv
-from anonloc_env.neighbours import pairs_within
+from anonloc_env.neighbours import pairs_within, pairs_within_each
 from anonloc_env.odometry import IntervalStatistics, Odometry
 from anonloc_env.rewards import EnergyCost
 from anonloc_env.separation import Separator, pairs_within_self
@@ -116,11 +117,6 @@ def numpy_only(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compiled, "_MODE", [None])
 
 
-def _pairs(a: np.ndarray, b: np.ndarray, radius: float) -> tuple[np.ndarray, ...]:
-    assert compiled.mode() is not None
-    return pairs_within(a, b, radius)
-
-
 @pytest.mark.parametrize("seed", range(6))
 def test_the_neighbour_search_finds_the_same_pairs(
     seed: int, request: pytest.FixtureRequest
@@ -135,13 +131,47 @@ def test_the_neighbour_search_finds_the_same_pairs(
     else:
         a, b = rng.uniform(0, 10, (n, 2)), rng.uniform(0, 10, (m, 2))
         radius = float(rng.uniform(0.1, 3.0))
-    fast = _pairs(a, b, radius)
+    _same_pairs(pairs_within, a, b, radius, request)
+
+
+def _same_pairs(
+    search: Callable[..., tuple[np.ndarray, ...]],
+    a: np.ndarray,
+    b: np.ndarray,
+    radius: float | np.ndarray,
+    request: pytest.FixtureRequest,
+) -> None:
+    """``search(a, b, radius)`` by its kernel, then by numpy: the same pairs (at least one), in
+    the same order, with the same distances and dtypes."""
+    assert compiled.mode() is not None
+    fast = search(a, b, radius)
     request.getfixturevalue("numpy_only")
-    plain = pairs_within(a, b, radius)
+    plain = search(a, b, radius)
     assert len(plain[0]) > 0
     for x, y in zip(fast, plain, strict=True):
         assert x.dtype == y.dtype
         np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_search_by_each_points_radius_finds_the_same_pairs(
+    seed: int, request: pytest.FixtureRequest
+) -> None:
+    """``pairs_within_each`` by its kernel and by numpy's grouped grid search: the same pairs,
+    order and distances. Radii over three levels (seeds 0 to 2 on a grid: distances of exactly a
+    radius, points on cell borders, duplicates; seed 3 with radii of 0 and below, which find
+    nothing), up to 59 x 59 points: within the kernel's reach."""
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(1, 60)), int(rng.integers(1, 60))
+    if seed < 3:
+        a, b = rng.integers(0, 8, (n, 2)).astype(float), rng.integers(0, 8, (m, 2)).astype(float)
+        radius = rng.choice([0.5, 1.0, 2.0, 3.0], n)
+    else:
+        a, b = rng.uniform(0, 10, (n, 2)), rng.uniform(0, 10, (m, 2))
+        radius = rng.uniform(0.2, 3.0, n) * rng.choice([1.0, 2.0, 4.0], n)
+    if seed == 3:
+        radius[: n // 2] = rng.choice([0.0, -1.0], n // 2)
+    _same_pairs(pairs_within_each, a, b, radius, request)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -193,9 +223,13 @@ def test_the_robots_interval_statistics_are_numpys(request: pytest.FixtureReques
         np.testing.assert_array_equal(x, y)
 
 
+@pytest.mark.parametrize("statistics", [True, False])
 @pytest.mark.parametrize("noise", [0.0, 0.05])
-def test_odometry_integrates_the_same(noise: float, request: pytest.FixtureRequest) -> None:
-    """Dead reckoning of 20 steps of wheel travel (3 sub-steps, with and without noise)."""
+def test_odometry_integrates_the_same(
+    noise: float, statistics: bool, request: pytest.FixtureRequest
+) -> None:
+    """Dead reckoning of 20 steps of wheel travel (3 sub-steps, with and without noise, with
+    and without the interval's statistics, which the kernel adds up in the same call)."""
     rng = np.random.default_rng(3)
     steps = [
         WheelTravel(rng.uniform(0, 0.01, (3, 9)), rng.normal(0, 0.05, (3, 9)), rng.random(9) < 0.3)
@@ -205,12 +239,21 @@ def test_odometry_integrates_the_same(noise: float, request: pytest.FixtureReque
     for use_kernels in (True, False):
         if not use_kernels:
             request.getfixturevalue("numpy_only")
-        odometry = Odometry(9, noise, v_max=0.5, dt=0.1)
+        odometry = Odometry(9, noise, v_max=0.5, dt=0.1, statistics=statistics)
         draws = np.random.default_rng(4)
         for motion in steps:
             odometry.integrate(motion, draws, np.full(9, 0.3))
         interval = odometry.mark_picture()
-        results.append((interval.d, interval.dphi, interval.path, interval.sum_ds2))
+        results.append(
+            (interval.d, interval.dphi, interval.path, interval.sum_ds2, interval.sum_dth2)
+            + ((interval.push, interval.push_sum) if statistics else ())
+        )
+    if not statistics:  # the straight distance, nothing summed
+        np.testing.assert_array_equal(results[0][2], np.hypot(*results[0][0].T))
+        assert not results[0][3].any()
+    else:
+        assert results[0][3].all()  # every robot moved
+        assert results[0][4].all()  # and turned
     for x, y in zip(*results, strict=True):
         np.testing.assert_array_equal(x, y)
 

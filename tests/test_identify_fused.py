@@ -257,6 +257,36 @@ def test_the_others_links_are_the_same_to_the_bit() -> None:
     assert min(seen.values()) > 10, seen
 
 
+def test_a_links_weights_are_the_same_to_the_bit() -> None:
+    """``Links.detect`` by its kernel and by numpy: the same floats (-0.0 kept) for the links
+    of random pictures (exact components, continuations, none), pairs from a row or missed
+    before (-1), with and without ends or keys."""
+    config = make_config(n_robots=30, camera={"p_miss": 0.08, "false_positives": 2.0})
+    model = SensorModel.from_config(config)
+    rng = np.random.default_rng(4)
+    checked = 0
+    for _ in range(60):
+        n_a, n_b = rng.integers(1, 30, 2)
+        spread = rng.uniform(20.0, 300.0)
+        prev, rows = rng.uniform(0, spread, (n_a, 3)), rng.uniform(0, spread, (n_b, 3))
+        links = _links(model, True, prev, rows, None)
+        assert links is not None
+        bare = Links(np.zeros(0), -links.starts, np.zeros(0, np.int64), np.zeros(0))
+        a = rng.integers(-1, n_a, 50)
+        b = rng.integers(0, n_b, 50)
+        a[: len(links.keys)] = links.keys[:50] // n_b  # the pairs of components too
+        b[: len(links.keys)] = links.keys[:50] % n_b
+        for link in (links, bare):
+            fast = link.detect(a, b)
+            with pytest.MonkeyPatch.context() as patch:
+                patch.setattr(compiled, "_MODE", [None])
+                plain = link.detect(a, b)
+            np.testing.assert_array_equal(np.signbit(fast), np.signbit(plain))
+            np.testing.assert_array_equal(fast, plain)
+        checked += len(links.keys) > 0
+    assert checked > 10
+
+
 @pytest.mark.parametrize("orientation", [False, True])
 def test_filtered_positions_are_the_same_to_the_bit(orientation: bool) -> None:
     """A clean crowd (100 robots at 4 per m^2, no misses, no false positives), where

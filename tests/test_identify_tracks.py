@@ -120,3 +120,20 @@ def test_a_nan_of_other_bits_is_alike_and_other_values_are_not() -> None:
     got = Tracks.gather([a, b, c], index)
     assert got.log_s.strides[0] != 0
     np.testing.assert_array_equal(got.log_s, Tracks.concat([a, b, c]).take(index).log_s)
+
+
+def test_empty_tracks_are_new_objects_of_no_track() -> None:
+    """``Tracks.empty`` hands out a new ``Tracks`` each time (its zero-length fields built
+    once): no track in any field, each field of its dtype and width, and a field set on one
+    leaves the next alone."""
+    first, second = Tracks.empty(), Tracks.empty()
+    assert first is not second
+    for f in FIELDS:
+        assert len(getattr(first, f)) == 0, f
+    assert first.slot.dtype == first.row.dtype == np.int64
+    assert first.pos.shape == first.carry.shape == (0, 2)
+    assert first.logw.dtype == first.theta.dtype == np.float64
+    first.logw = np.zeros(3)
+    assert len(second.logw) == 0
+    assert len(Tracks.empty().logw) == 0
+    assert len(Tracks.concat([first.take(np.zeros(0, np.int64)), second])) == 0

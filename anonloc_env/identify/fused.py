@@ -514,6 +514,9 @@ def load() -> None:
         return
     compiled.pairs_within(np.zeros((1, 2)), np.zeros((1, 2)), 1.0)
     compiled.leave_out_sums(np.ones((1, 1, 1)), 1.0, np.ones(2))
+    compiled.pairs_within_each(
+        np.zeros((1, 2)), np.zeros((1, 2)), np.ones(1), np.zeros(1, np.int64)
+    )
     one, two = np.zeros(1, dtype=np.int64), np.array([0, 1], dtype=np.int64)
     ones = np.ones
     leg = (

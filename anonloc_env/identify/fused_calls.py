@@ -128,15 +128,26 @@ def known_robots(tracks: Tracks, index: np.ndarray) -> tuple[np.ndarray, np.ndar
     motion (what :func:`known_compiled` takes) and the others (the general path), each in the
     order of ``index``. A robot's children depend on its own tracks alone, so each robot gets
     the same children whichever path its neighbours take."""
-    sub = tracks.select(index)
-    known = np.isfinite(sub.theta) & np.isfinite(sub.log_s)
-    if sub.turn.any() or sub.carry.any():
-        known &= (sub.turn == 0.0) & ~sub.carry.any(axis=1)
+    theta, log_s, turn, carry = (
+        _selected(f, index) for f in (tracks.theta, tracks.log_s, tracks.turn, tracks.carry)
+    )  # the four fields the test reads, not all of tracks.select(index)
+    known = np.isfinite(theta) & np.isfinite(log_s)
+    if turn.any() or carry.any():
+        known &= (turn == 0.0) & ~carry.any(axis=1)
     if known.all():
         return index, index[:0]
-    starts = group_starts(sub.slot)
-    whole = np.repeat(np.minimum.reduceat(known, starts), group_sizes(sub.slot, starts))
+    slot = _selected(tracks.slot, index)
+    starts = group_starts(slot)
+    whole = np.repeat(np.minimum.reduceat(known, starts), group_sizes(slot, starts))
     return index[whole], index[~whole]
+
+
+def _selected(field: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``Tracks.select(index)``'s ``field`` (``index`` increasing, not empty): a view where
+    ``index`` is a range, else :func:`~anonloc_env.identify.arrays.take_field`'s."""
+    if index[-1] - index[0] + 1 == len(index):
+        return field[int(index[0]) : int(index[-1]) + 1]
+    return take_field(field, index, len(index))
 
 
 def renumbered(

@@ -178,10 +178,37 @@ def leave_out_links(
     return key, extra, moves[:, :m].copy(), p[:m].copy()
 
 
+@jit
+def detect(
+    starts: np.ndarray,
+    ends: np.ndarray,
+    keys: np.ndarray,
+    extra: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``others.Links.detect`` into ``out`` (the numpy lines it stands for, element by element:
+    ``starts[b]`` plus ``ends[a]`` where ``a >= 0`` (plus 0.0 elsewhere, or where there are no
+    ends), plus, where there are keys, ``extra`` of the pair's key where it is one (else 0.0))."""
+    n_starts, n_keys, n_ends = starts.shape[0], keys.shape[0], ends.shape[0]
+    for k in range(a.shape[0]):
+        seen = a[k] >= 0
+        a0 = a[k] if seen else 0
+        end = ends[a0] if seen and n_ends > 0 else 0.0
+        value = starts[b[k]] + end
+        if n_keys > 0:
+            key = a0 * n_starts + b[k]
+            at = min(np.searchsorted(keys, key), n_keys - 1)
+            value = value + (extra[at] if seen and keys[at] == key else 0.0)
+        out[k] = value
+
+
 def load() -> None:
-    """Compile (or load from numba's cache) both kernels on a tiny graph."""
+    """Compile (or load from numba's cache) the kernels on a tiny graph."""
     one = np.zeros(1, dtype=np.int64)
     powers = np.ones((2, 2))
     out = association(1, 1, one, one, np.ones(1), 1.0, powers, 1)
     _, _, _, comps, rows, cols, w_flat, sums = out
     leave_out_links(comps, rows, cols, w_flat, sums, np.log(sums), 1, np.zeros(1), np.zeros(1), 0.1)
+    detect(np.zeros(1), np.zeros(1), one, np.zeros(1), one, one, np.zeros(1))

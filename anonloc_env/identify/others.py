@@ -83,6 +83,8 @@ END_FLOOR = 1e-3
 NEW_FLOOR = 0.05
 #: Least probability of a row's continuation kept for the next link (``Links.moved``).
 MOVE_FLOOR = 1e-3
+_INT64 = np.dtype(np.int64)
+_FLOAT64 = np.dtype(np.float64)
 
 
 def persists(model: SensorModel) -> bool:
@@ -123,9 +125,22 @@ class Links:
     moved_p: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def detect(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """``(K,)`` log weight of links ``a[k] -> b[k]`` (``a[k] < 0``: missed before)."""
+        """``(K,)`` log weight of links ``a[k] -> b[k]`` (``a[k] < 0``: missed before); one
+        compiled call (``fused_links.detect``, the same floats) for int64 ``a`` and ``b``."""
         a = np.asarray(a)
         b = np.asarray(b)
+        if (
+            a.dtype == _INT64
+            and b.dtype == _INT64
+            and a.ndim == 1
+            and a.shape == b.shape
+            and self.keys.dtype == _INT64
+            and self.starts.dtype == self.ends.dtype == self.extra.dtype == _FLOAT64
+            and compiled.mode() is not None
+        ):
+            out = np.empty(len(a))
+            fused_links.detect(self.starts, self.ends, self.keys, self.extra, a, b, out)
+            return out
         seen = a >= 0
         a0 = np.where(seen, a, 0)
         out = self.starts[b] + np.where(seen, self.ends[a0] if len(self.ends) else 0.0, 0.0)

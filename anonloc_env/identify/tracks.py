@@ -89,11 +89,16 @@ class Tracks:
 
     @classmethod
     def empty(cls) -> Tracks:
-        """No track."""
-        none = np.zeros(0, np.int64)
-        return cls.fresh(
-            none, none, np.zeros((0, 2)), np.zeros(0), pos_var=0.0, theta=0.0, p_tt=0.0, log_s=0.0
-        )
+        """No track: a new ``Tracks`` of the zero-length fields built once (nothing can be
+        written into an array of no item, and a field set on one leaves the others alone)."""
+        if not _EMPTY:
+            none = np.zeros(0, np.int64)
+            built = cls.fresh(
+                none, none, np.zeros((0, 2)), np.zeros(0), pos_var=0.0, theta=0.0, p_tt=0.0,
+                log_s=0.0,
+            )  # fmt: skip
+            _EMPTY.extend(getattr(built, f) for f in FIELDS)
+        return cls(*_EMPTY)
 
     def own_motion(self, interval: Interval) -> tuple[np.ndarray, np.ndarray]:
         """``((H, 2), (H,))``: each track's own displacement (m, robot frame at its newest
@@ -177,6 +182,8 @@ class Tracks:
 
 #: The fields of :class:`Tracks`, in order.
 FIELDS = tuple(f.name for f in fields(Tracks))
+#: :meth:`Tracks.empty`'s fields, once built.
+_EMPTY: list[np.ndarray] = []
 
 
 def _gather_small(parts: list[Tracks], index: np.ndarray) -> Tracks:
