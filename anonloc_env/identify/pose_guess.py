@@ -4,7 +4,7 @@ Between two pictures every row moves by the camera's change plus its robot's own
 unknown to the others. ``Guess`` says where each row of the previous picture should be now
 (ahead of or behind its place on its robot's axis, or anywhere a typical step away) and how far
 off that may be; ``Anchors`` are the rows the identifier is sure of (``camera.pooled_motion``).
-The helpers here match rows to the guesses (``Near``, ``best_of``), weigh each pair by
+The helpers here find the rows within reach of the guesses (``Near``), weigh each pair by
 its residual (``ways``, ``pair_weights``) and set the guesses' spreads to the residuals' robust
 scales (``rescaled``, ``shrunk``). The fit that uses them is
 ``anonloc_env.identify.camera_pose.Registration``'s.
@@ -252,24 +252,3 @@ def same_pairs(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray
     return bool(
         len(a[0]) == len(b[0]) and np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
     )
-
-
-def best_of(key: np.ndarray, other: np.ndarray, score: np.ndarray, size: int) -> np.ndarray:
-    """``(size,)`` for each value of ``key``, the ``other`` of its lowest ``score`` (-1 if none;
-    of equal scores, the first): each key's run after a stable sort, its least score, its first
-    pair that has it."""
-    out = np.full(size, -1, np.int64)
-    if len(key) == 0:
-        return out
-    order = np.argsort(key, kind="stable")
-    sorted_key, sorted_score = key[order], score[order]
-    start = np.ones(len(order), bool)
-    start[1:] = sorted_key[1:] != sorted_key[:-1]
-    run = np.cumsum(start) - 1
-    least = np.minimum.reduceat(sorted_score, np.flatnonzero(start))
-    hit = np.flatnonzero(sorted_score == least[run])
-    first = np.ones(len(hit), bool)
-    first[1:] = run[hit[1:]] != run[hit[:-1]]
-    pick = order[hit[first]]
-    out[key[pick]] = other[pick]
-    return out
