@@ -118,9 +118,19 @@ MISSING_GATE = Feature("missing", "1 - p_detect, the share of robots a picture m
 #: The terms any agent may have to act on a camera that misses robots: every base times the
 #: ``missing`` gate.
 MISSING_TERMS = _terms(TERM_BASES, (MISSING_GATE,))
+#: The belief at which the ``fair`` gate opens: a robot that gives one row at least half its
+#: belief has few rivals left, so what a candidate is predicted to tell it (``entropy_after``)
+#: is about those few rows, not about a crowd of look-alikes (fifteenth round).
+FAIR = 0.5
+#: A gate that is 1 once the robot's largest belief is at least :data:`FAIR`.
+FAIR_GATE = Feature("fair", f"1 once the robot's largest belief is at least {FAIR}")
+#: The terms an agent may have to act once fairly sure: every base times the ``fair`` gate.
+FAIR_TERMS = _terms(TERM_BASES, (FAIR_GATE,))
+
 #: Every term this anonloc can compute, by name.
 KNOWN_TERMS = {
-    t.name: t for t in CROWD_TERMS + SIZE_TERMS + CROWDED_TERMS + DENSE_TERMS + MISSING_TERMS
+    t.name: t
+    for t in CROWD_TERMS + SIZE_TERMS + CROWDED_TERMS + DENSE_TERMS + MISSING_TERMS + FAIR_TERMS
 }
 
 
@@ -135,6 +145,7 @@ def _base(name: str, candidates: Any, column: Mapping[str, int]) -> Any:
 
 #: The gates that open where a context feature reaches a threshold: gate -> (feature, threshold).
 THRESHOLD_GATES = {
+    "fair": ("largest_belief", FAIR),
     "decided": ("largest_belief", DECIDED),
     "crowded": ("crowding", CROWDED),
     "dense": ("density", DENSE),

@@ -52,9 +52,13 @@ neither is the default):
 ``Decisions.crowd`` is ``bayes``'s default: the hold with the release, the pressed keep and the
 pinned robots' guard for every robot in a crowd (see ``in_crowd``: above one robot per m^2, clean
 pictures, a fixed camera, where it was measured); in a crowd with misses or false positives
-(``in_cluttered_crowd``) the pinned robots' guard alone (issue 23, fifteenth round: on 24 tuning
-episodes at 4 per m^2, N = 50, 8 % misses and 2 false positives, pinned robots' top beliefs in
-0.99 to 0.999 were right only 93.9 % of the time); in open space where the identifier models
+(``in_cluttered_crowd``) the pinned robots' guard without the hold, and exclusive rows: robots
+that would decide the same row at a picture are all undecided there (issue 23, fifteenth round:
+on 24 tuning episodes at 4 per m^2, N = 50, 8 % misses and 2 false positives, pinned robots' top
+beliefs in 0.99 to 0.999 were right only 93.9 % of the time, and 92 of the 120 wrong decisions
+left after the guard shared their row with another decided robot: with misses or false
+positives each robot's belief is computed alone, and several pinned robots take the row of one
+still robot at once); in open space where the identifier models
 contacts (clean pictures, a fixed camera: ``in_contact``) the same hold for robots touched in the
 newest ``CONTACT_WINDOW`` intervals only; elsewhere (misses or false positives at one robot per
 m^2 or less, a moving camera) the plain threshold, bit for bit (``docs/crowds.md``).
@@ -162,6 +166,9 @@ class Decisions:
         cluttered_pinned: with ``only_in_crowd`` and ``pinned``, guard pinned robots also where
             ``in_cluttered_crowd`` (misses or false positives above one robot per m^2), deciding
             at ``threshold`` otherwise there; False (the default): the plain threshold there.
+        exclusive: with ``cluttered_pinned``, where ``in_cluttered_crowd``, robots that would
+            decide the same row at a picture are all undecided there (at most one of them can
+            be right); False (the default): each robot decides alone.
     """
 
     def __init__(
@@ -176,6 +183,7 @@ class Decisions:
         open_touched: int | None = None,
         pinned: tuple[int, int, float, float] | None = None,
         cluttered_pinned: bool = False,
+        exclusive: bool = False,
     ) -> None:
         if not 0.5 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0.5, 1), got {threshold}")
@@ -204,6 +212,8 @@ class Decisions:
             check_pinned(pinned)
         if cluttered_pinned and not (only_in_crowd and pinned is not None):
             raise ValueError("cluttered_pinned needs only_in_crowd and pinned (it extends them)")
+        if exclusive and not cluttered_pinned:
+            raise ValueError("exclusive needs cluttered_pinned (it applies where that does)")
         if open_touched is not None and not only_in_crowd:
             raise ValueError("open_touched needs only_in_crowd (it says how to hold outside one)")
         self.threshold = threshold
@@ -216,6 +226,7 @@ class Decisions:
         self.open_touched = open_touched
         self.pinned = pinned
         self.cluttered_pinned = cluttered_pinned
+        self.exclusive = exclusive
         self.reset()
 
     @classmethod
@@ -229,8 +240,9 @@ class Decisions:
         robots) with the release (``CROWD_RELEASE``) and the pinned robots' guard
         (``pinned``, ``CROWD_PINNED``; None: the thirteenth round's decisions) in a crowd, the
         same hold for robots touched in the newest ``CONTACT_WINDOW`` intervals in open space
-        with the contact model, the pinned robots' guard alone in a crowd with misses or false
-        positives (``cluttered``), the plain threshold elsewhere (see the module)."""
+        with the contact model, the pinned robots' guard and exclusive rows in a crowd with
+        misses or false positives (``cluttered``), the plain threshold elsewhere (see the
+        module)."""
         return cls(
             threshold,
             CROWD_KEEP,
@@ -241,6 +253,7 @@ class Decisions:
             open_touched=CONTACT_WINDOW,
             pinned=pinned,
             cluttered_pinned=cluttered and pinned is not None,
+            exclusive=cluttered and pinned is not None,
         )
 
     @property
@@ -307,11 +320,14 @@ class Decisions:
     def _guarded(
         self, decided: np.ndarray, best: np.ndarray, top: np.ndarray, pinned: np.ndarray | None
     ) -> np.ndarray:
-        """The threshold's decisions but for the pinned robots' guard (no hold): where
-        ``in_cluttered_crowd``."""
+        """The threshold's decisions but for the pinned robots' guard (no hold) and, with
+        ``exclusive``, no row decided twice: where ``in_cluttered_crowd``."""
         before = self._estimate
         if pinned is not None and self.pinned is not None and before is not None:
             decided &= ~pinned | (before >= 0) | (top >= self.pinned[3])
+        if self.exclusive and decided.any():
+            rows, counts = np.unique(best[decided], return_counts=True)
+            decided &= ~np.isin(best, rows[counts > 1])
         self._estimate = np.where(decided, best, -1)
         return self._estimate
 

@@ -26,11 +26,18 @@ in memory (nothing saved), or ``uniform``, each with or without the rest once su
   still as the duty allows; in free motion its rest); ``agent-still-energy-E`` the same with
   ``E`` added to the ``energy*on_duty`` weight;
 - ``agent-noprobe``: the bundled agent at rest without its probe (``probe=None``);
+- ``agent+T=V,T=V`` / ``zero+T=V,...``: ``V`` added to term ``T`` of the bundled weights /
+  of zero weights (``uniform``'s), at rest, played by the search's numpy chooser; ``T`` may be
+  a term the bundled agent lacks, such as ``entropy_after*fair`` or ``contact_risk*always``
+  (then the agent sees the crowd features) (fifteenth round);
+- ``file:PATH``: the saved agent at ``PATH`` (an ``agent.zip`` or its folder), at rest;
 - ``agent-reach-B``: ``B`` added to the ``reach*always`` weight (``B > 0``: every robot prefers
   candidates that carry it further, fourteenth round), at rest;
 - the suffix ``-pinned`` (after ``agent``, ``agent-nodecided``, ``agent-size-B``,
   ``agent-reach-B`` or ``uniform-rest``): resting robots hold still through bumps, the rest
   before the fourteenth round (``RestWhenSure(yield_to_bumps=False)``);
+- the suffix ``-noescape`` (after any other): pressed robots back off as after a first bump
+  (0.3 m/s) instead of escaping at 0.08 m/s (fifteenth round);
 - ``uniform``, ``uniform-rest`` (at 0.9999).
 
 Usage::
@@ -147,22 +154,88 @@ def edited_agent(edit: Callable[[str, float], float]) -> Any:
     return model
 
 
+def edited_chooser(base: str, rest: float | None, pinned: bool) -> Callable[[], Excitation]:
+    """The variant ``agent+T=V,T=V`` (the bundled weights) or ``zero+T=V,...`` (zero weights:
+    ``uniform``) with ``V`` added to term ``T``, played by the search's numpy chooser
+    (:class:`agents.linear_chooser.LinearChooser`, float64) with the bundled spec's features;
+    a term the spec lacks (any of :data:`agents.linear_terms.KNOWN_TERMS`) is appended, and a
+    term of the crowd features (``contact_risk``, ``crowding``) gives the agent those features.
+
+    Raises:
+        ValueError: a term this anonloc does not know, or a value that is not a number.
+    """
+    import dataclasses
+
+    from agents.linear_agent import linear_weights
+    from agents.linear_chooser import LinearChooser
+    from agents.linear_terms import KNOWN_TERMS
+    from agents.policy import load_model, model_spec
+
+    head, _, edits = base.partition("+")
+    spec = model_spec(load_model("bundled"))
+    assert spec is not None  # the bundled agent has a spec
+    weights = {t: (w if head == "agent" else 0.0) for t, w in linear_weights("bundled").items()}
+    for edit in edits.split(","):
+        term, _, value = edit.partition("=")
+        if term not in KNOWN_TERMS:
+            known = sorted(KNOWN_TERMS)
+            raise ValueError(f"variant {base!r}: unknown term {term!r}, one of {known}")
+        weights[term] = weights.get(term, 0.0) + float(value)
+    extra = tuple(KNOWN_TERMS[t] for t in weights if t not in {s.name for s in spec.terms})
+    if any(t.name.startswith("contact_risk*") or "*crowd" in t.name for t in extra):
+        crowd = spec.with_crowd_features()  # the crowd features, the density among them
+        spec = dataclasses.replace(
+            spec,
+            candidate_features=crowd.candidate_features,
+            context_features=crowd.context_features,
+        )
+    spec = dataclasses.replace(spec, terms=spec.terms + extra)
+    vector = np.array([weights[t.name] for t in spec.terms])
+    sure = rest
+    if sure is None:
+        return lambda: LinearChooser(vector, spec)
+    return lambda: RestWhenSure(LinearChooser(vector, spec), sure, yield_to_bumps=not pinned)
+
+
+def without_escape(excitation: Excitation) -> Excitation:
+    """``excitation`` (or the one its rest wraps) whose pressed robots back off as after a first
+    bump (0.3 m/s for 0.5 to 1 s) instead of escaping slowly (``GreedySettings.escape = None``,
+    :class:`baselines.excitations.reflex.BumpReflex`), before its first reset."""
+    from baselines.excitations.reflex import BumpReflex
+
+    held = excitation.inner if isinstance(excitation, RestWhenSure) else excitation
+    settings = getattr(held, "settings", None)
+    if not isinstance(held.backoff, BumpReflex) or settings is None:
+        raise ValueError(f"-noescape needs a candidate excitation, got {type(held).__name__}")
+    held.backoff = BumpReflex(settings.back, None)
+    return excitation
+
+
 def variant(name: str) -> Callable[[], Excitation]:
     """How to build the excitation a variant name says (see the module).
 
     Raises:
         ValueError: a name this script does not know.
     """
+    if name.endswith("-noescape"):
+        made = variant(name.removesuffix("-noescape"))
+        return lambda: without_escape(made())
     rest: float | None = None if name.endswith("-norest") else REST
     pinned = name.endswith("-pinned")
     base = name.removesuffix("-norest").removesuffix("-pinned")
+    if base.startswith(("agent+", "zero+")):
+        return edited_chooser(base, rest, pinned)
     if base in ("uniform", "uniform-rest"):
         rest = REST if base == "uniform-rest" else None
         inner: Callable[[], Excitation] = EXCITATIONS["uniform"]
     else:
         from agents.policy import LearnedExcitation
 
-        if base in ("agent", "agent-still", "agent-noprobe") or base.startswith(
+        if base.startswith("file:"):
+            from agents.policy import load_model
+
+            model = load_model(base.removeprefix("file:"))
+        elif base in ("agent", "agent-still", "agent-noprobe") or base.startswith(
             ("agent-crawl-", "agent-delay-")
         ):
             model = edited_agent(lambda term, w: w)

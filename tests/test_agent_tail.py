@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from baselines.excitations.base import Still
+from baselines.excitations.rest import RestWhenSure
 from baselines.runner import EpisodeResult, PictureRecord
-from benchmarks.agent_tail import not_right, variant
+from benchmarks.agent_tail import not_right, variant, without_escape
 
 
 def _record(robot: int, picture: int, correct: bool, localizer: str = "") -> PictureRecord:
@@ -118,3 +120,33 @@ def test_origins_bin_the_robots_not_right_by_their_belief_before() -> None:
     after = [rec(i, 4, i == 5, 0.5) for i in (0, 1, 2, 3, 5)] + [rec(6, 4, False, 0.5)]
     result = EpisodeResult(seed=0, n_robots=7, records=before + after)
     assert origins(result, 4).tolist() == [2, 1, 1, 1]
+
+
+def test_an_added_weight_plays_the_bundled_weights_plus_the_edit() -> None:
+    pytest.importorskip("stable_baselines3")
+    from agents.linear_agent import linear_weights
+
+    bundled = linear_weights("bundled")
+    made = variant("agent+reach*always=0.5,entropy_after*fair=-2,reach*always=0.25")()
+    inner = made.inner  # at rest: RestWhenSure around the numpy chooser
+    got = dict(zip((t.name for t in inner.terms), inner.weights.tolist(), strict=True))
+    assert got["reach*always"] == pytest.approx(bundled["reach*always"] + 0.75, abs=1e-12)
+    assert got["entropy_after*fair"] == -2.0  # a term the bundled agent lacks, appended
+    assert all(got[t] == w for t, w in bundled.items() if t != "reach*always")
+    zero = variant("zero+reach*always=1-norest")()
+    assert np.count_nonzero(zero.weights) == 1  # uniform's zeros but the one edit, no rest
+
+
+def test_an_edit_of_an_unknown_term_is_refused_by_name() -> None:
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="'reach\\*sometimes'"):
+        variant("agent+reach*sometimes=1")
+
+
+def test_noescape_backs_pressed_robots_off_as_after_a_first_bump() -> None:
+    made = variant("uniform-rest-noescape")()
+    assert isinstance(made, RestWhenSure)
+    assert made.inner.backoff.escape is None  # the plain back-off, also for pressed robots
+    assert variant("uniform")().backoff.escape is not None  # the default escapes slowly
+    with pytest.raises(ValueError, match="candidate excitation"):
+        without_escape(RestWhenSure(Still(), 0.9999))
