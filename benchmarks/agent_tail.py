@@ -166,15 +166,17 @@ def edited_chooser(base: str, rest: float | None, pinned: bool) -> Callable[[], 
     """
     import dataclasses
 
-    from agents.linear_agent import linear_weights
     from agents.linear_chooser import LinearChooser
     from agents.linear_terms import KNOWN_TERMS
     from agents.policy import load_model, model_spec
 
     head, _, edits = base.partition("+")
-    spec = model_spec(load_model("bundled"))
+    model = load_model("bundled")  # once: its spec and its weights
+    spec = model_spec(model)
     assert spec is not None  # the bundled agent has a spec
-    weights = {t: (w if head == "agent" else 0.0) for t, w in linear_weights("bundled").items()}
+    bundled = model.policy.scorer.weights.detach().double().tolist()
+    scale = 1.0 if head == "agent" else 0.0
+    weights = {t.name: w * scale for t, w in zip(spec.terms, bundled, strict=True)}
     for edit in edits.split(","):
         term, _, value = edit.partition("=")
         if term not in KNOWN_TERMS:
